@@ -1,0 +1,55 @@
+"""One family of errors, so the command line can turn any of them into one clear line.
+
+Every message names where the problem is (file, field, object) and, where it helps, the valid choices.
+"""
+from __future__ import annotations
+
+
+class BridgeError(Exception):
+    """Base of every error bridge raises on purpose (bad input, failed simulation, ...)."""
+
+    def __init__(self, message: str, *, source: str | None = None, field: str | None = None):
+        self.source = source
+        self.field = field
+        where = ": ".join(part for part in (source, field) if part)
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+class ObjectDatabaseError(BridgeError):
+    """A malformed object type, SIE reference, robot entry or mesh in the object database."""
+
+
+class WorldStateError(BridgeError):
+    """A world-state file that does not fit the object database."""
+
+
+class PddlError(BridgeError):
+    """Malformed or inconsistent PDDL: action templates, domains, problems, plans."""
+
+
+class ActionError(PddlError):
+    """A ground action that cannot be applied (unknown action, wrong arguments, unmet precondition)."""
+
+
+class SIEError(BridgeError):
+    """An SIE that raised or returned malformed facts."""
+
+
+class RecordingError(BridgeError):
+    """Bad telemetry, observed poses or recording folder."""
+
+
+class SceneError(BridgeError):
+    """A scene that cannot be built in Drake, or a simulation that failed."""
+
+
+class SimulationFailure(SceneError):
+    """The simulation produced garbage (NaN, object through the table, robot not following telemetry)."""
+
+
+class FitError(BridgeError):
+    """Bad parameter specification or a fit that cannot run."""
+
+
+class DiagnosisError(BridgeError):
+    """A diagnosis that cannot run (no observations, unknown effect, ...)."""

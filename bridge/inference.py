@@ -1,0 +1,116 @@
+"""The inference module (paper, Section III-D): turn a simulated geometric state into the new symbolic state.
+
+Only objects that moved, plus those that touched one that moved, are re-evaluated (and the robot, which always
+moves during teleoperation). For each, every predicate its type provides with an SIE is decided again: the
+object's old facts of that predicate are replaced by what the SIE returns. Every other fact is kept.
+An SIE that raises or returns malformed facts is reported and leaves its predicate's facts as they were.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Mapping, Sequence
+
+from .errors import BridgeError
+from .odb import ObjectDatabase
+from .sie import EvaluationContext
+from .values import Contact, Fact, Pose
+from .world import WorldState, check_fact
+
+
+@dataclass(frozen=True)
+class SIEFailure:
+    object: str
+    predicate: str
+    sie: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"SIE {self.sie} for ({self.predicate} ...) of object {self.object!r} failed: {self.message}; its facts were kept"
+
+
+@dataclass(frozen=True)
+class InferenceResult:
+    world: WorldState  # poses after the simulation, facts inferred
+    evaluated: tuple[str, ...]
+    added: frozenset[Fact]
+    removed: frozenset[Fact]
+    failures: tuple[SIEFailure, ...] = ()
+
+
+def select_objects(world: WorldState, moved: Iterable[str], contact_pairs: Iterable[tuple[str, str]]) -> tuple[str, ...]:
+    """Moved objects, objects that touched a moved one, and the robot; in world order."""
+    moved = set(moved)
+    touched = set()
+    for a, b in contact_pairs:
+        a, b = a.split("/")[0], b.split("/")[0]
+        if a in moved:
+            touched.add(b)
+        if b in moved:
+            touched.add(a)
+    chosen = moved | touched
+    names = [n for n in world.objects if n in chosen]
+    if world.robot is not None:
+        names.append(world.robot.name)
+    return tuple(names)
+
+
+def infer_state(
+    before: WorldState,
+    odb: ObjectDatabase,
+    poses: Mapping[str, Pose],
+    contacts: Sequence[Contact] | None,
+    moved: Iterable[str],
+    contact_pairs: Iterable[tuple[str, str]] = (),
+    *,
+    time: float = 0.0,
+) -> InferenceResult:
+    """Re-decide the facts of the selected objects in the world with the new `poses` and final `contacts`."""
+    after = before.with_poses(poses)
+    ctx = EvaluationContext(after, odb, tuple(contacts) if contacts is not None else None, time)
+    selected = select_objects(before, moved, contact_pairs)
+    replaced: dict[tuple[str, str, int], frozenset[Fact]] = {}
+    failures: list[SIEFailure] = []
+    for name in selected:
+        obj_type = odb.get(after.type_name(name))
+        for predicate, decl in obj_type.predicates.items():
+            sie = odb.sie(obj_type.name, predicate)
+            if sie is None:
+                continue
+            try:
+                facts = _validated(sie.evaluate(name, ctx), name, decl.subject, predicate, after, odb)
+            except Exception as exc:  # an SIE is user code: any failure is reported, never fatal
+                message = str(exc) if isinstance(exc, BridgeError) else f"{type(exc).__name__}: {exc}"
+                failures.append(SIEFailure(name, predicate, str(decl.sie), message))
+                continue
+            replaced[(predicate, name, decl.subject)] = facts
+    stale = {
+        f for f in before.facts
+        for (p, name, i) in replaced
+        if f.predicate == p and len(f.args) > i and f.args[i] == name
+    }
+    new = frozenset().union(*replaced.values()) if replaced else frozenset()
+    facts = (before.facts - stale) | new
+    return InferenceResult(
+        world=after.with_facts(facts), evaluated=selected,
+        added=facts - before.facts, removed=before.facts - facts, failures=tuple(failures))
+
+
+def _validated(result, obj: str, subject: int, predicate: str, world: WorldState, odb: ObjectDatabase) -> frozenset[Fact]:
+    """An SIE's return value as facts about `obj`, or a BridgeError saying what is wrong with it."""
+    if result is None:
+        return frozenset()
+    if isinstance(result, Fact):
+        result = [result]
+    if isinstance(result, (str, bytes)) or not isinstance(result, Iterable):
+        raise BridgeError(f"returned {result!r}; expected a list of Fact")
+    facts = []
+    for item in result:
+        if not isinstance(item, Fact):
+            raise BridgeError(f"returned {item!r}; expected Fact objects like Fact('{predicate}', ({obj!r}, ...))")
+        if item.predicate != predicate:
+            raise BridgeError(f"returned {item} for predicate {predicate!r}")
+        if len(item.args) <= subject or item.args[subject] != obj:
+            raise BridgeError(f"returned {item}, which is not about {obj!r} (argument {subject + 1})")
+        check_fact(item, world, odb, None, "result", error=BridgeError)
+        facts.append(item)
+    return frozenset(facts)

@@ -1,0 +1,408 @@
+"""Read the object database: YAML object types with single inheritance, SIE modules beside them.
+
+Layout of a database root (``odb/`` in this repository)::
+
+    odb/types/*.yaml    each file maps type names to definitions
+    odb/sies/*.py       SIE classes, referenced as ``sies.<module>:<Class>``
+
+A definition (every key optional; see docs/object_database.md)::
+
+    small_box:
+      parent: box                 # single inheritance
+      pddl_type: box              # defaults to the parent's
+      abstract: false             # not inherited
+      fixed: false                # welded to the world
+      geometry: {shape: box, size: [0.06, 0.06, 0.12]}   # replaced whole by a subtype
+      physics: {mass: 0.3, friction: 0.5}                # merged key by key
+      predicates:                                        # merged by predicate name
+        upright: {params: [movable], sie: {class: sies.pose:Upright, params: {max_tilt_deg: 20}}}
+      robot: {...}                # robots only: model, joints, gripper
+
+Mesh paths are relative to the YAML file, or ``dataset://NAME/path`` for data kept outside the project.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import os
+import re
+import sys
+import types as pytypes
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+from ..errors import ObjectDatabaseError
+from ..values import is_identifier
+from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl, RobotSpec, SIERef
+
+TYPE_KEYS = {"parent", "pddl_type", "abstract", "fixed", "geometry", "physics", "predicates", "robot", "doc"}
+GEOMETRY_KEYS = {"shape", "size", "mesh", "scale", "convex", "color"}
+PHYSICS_KEYS = {"mass", "density", "com", "inertia", "friction", "dynamic_friction", "hydroelastic_modulus", "dissipation"}
+PREDICATE_KEYS = {"params", "subject", "sie"}
+ROBOT_KEYS = {"model", "base_link", "joints", "gripper", "home", "kp", "kd"}
+GRIPPER_KEYS = {"joints", "tcp_frame", "open", "closed", "finger_links"}
+SIZE_LENGTH = {"box": 3, "cylinder": 2, "sphere": 1}
+DATASET_SCHEME = "dataset://"
+
+
+@dataclass(frozen=True)
+class _RawType:
+    name: str
+    body: Mapping[str, Any]
+    source: Path
+
+
+class _Yaml12Loader(yaml.SafeLoader):
+    """YAML 1.2 booleans: only true/false. In YAML 1.1 the predicate name `on` would read as True."""
+
+
+_Yaml12Loader.yaml_implicit_resolvers = {
+    key: [(tag, regexp) for tag, regexp in resolvers if tag != "tag:yaml.org,2002:bool"]
+    for key, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_Yaml12Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
+
+
+def load_yaml_text(text: str) -> Any:
+    return yaml.load(text, Loader=_Yaml12Loader)
+
+
+def read_yaml(path: Path, what: str, error: type[Exception] = ObjectDatabaseError) -> Any:
+    """Parse one YAML file; a syntax error names the file and line."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise error(f"{what} not found", source=str(path)) from None
+    except OSError as exc:
+        raise error(f"cannot read {what}: {exc.strerror}", source=str(path)) from None
+    try:
+        return load_yaml_text(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise error(f"YAML syntax error: {problem}", source=str(path), field=where) from None
+
+
+def dataset_roots_from_env(names: set[str], repo_root: Path | None) -> dict[str, Path]:
+    """Roots of datasets named in ``dataset://NAME/...`` paths, from BRIDGE_DATASET_<NAME> or ../shared/datasets."""
+    roots: dict[str, Path] = {}
+    for name in names:
+        env = os.environ.get("BRIDGE_DATASET_" + name.upper().replace("-", "_"))
+        if env:
+            roots[name] = Path(env)
+        elif repo_root is not None and (repo_root.parent / "shared" / "datasets" / name).is_dir():
+            roots[name] = repo_root.parent / "shared" / "datasets" / name
+    return roots
+
+
+class _Reader:
+    """Turns raw YAML definitions into resolved `ObjectType`s; collects nothing global besides its inputs."""
+
+    def __init__(self, root: Path, datasets: Mapping[str, Path]):
+        self.root = root
+        self.datasets = dict(datasets)
+        self.package = _sie_package(root)
+
+    # --- files --------------------------------------------------------------------------------
+    def read_raw(self) -> dict[str, _RawType]:
+        folder = self.root / "types"
+        if not folder.is_dir():
+            raise ObjectDatabaseError("no 'types' folder with object type YAML files", source=str(self.root))
+        raw: dict[str, _RawType] = {}
+        for path in sorted(folder.rglob("*.yaml")):
+            data = read_yaml(path, "object type file")
+            if data is None:
+                continue
+            if not isinstance(data, dict):
+                raise ObjectDatabaseError("must map type names to definitions", source=str(path))
+            for name, body in data.items():
+                if not isinstance(name, str) or not is_identifier(name):
+                    raise ObjectDatabaseError(
+                        f"type name {name!r} is not an identifier (letters, digits, '_' and '-')", source=str(path))
+                if body is None:
+                    body = {}
+                if not isinstance(body, dict):
+                    raise ObjectDatabaseError("definition must be a mapping", source=str(path), field=name)
+                unknown = set(body) - TYPE_KEYS
+                if unknown:
+                    raise ObjectDatabaseError(
+                        f"unknown key {sorted(unknown)[0]!r}; valid keys: {', '.join(sorted(TYPE_KEYS))}",
+                        source=str(path), field=name)
+                if name in raw:
+                    raise ObjectDatabaseError(
+                        f"type {name!r} is defined twice (also in {raw[name].source})", source=str(path), field=name)
+                raw[name] = _RawType(name, body, path)
+        if not raw:
+            raise ObjectDatabaseError("no object types found in types/*.yaml", source=str(self.root))
+        return raw
+
+    # --- inheritance --------------------------------------------------------------------------
+    def lineage(self, raw: Mapping[str, _RawType], name: str) -> tuple[str, ...]:
+        chain = [name]
+        while True:
+            parent = raw[chain[-1]].body.get("parent")
+            if parent is None:
+                return tuple(chain)
+            if not isinstance(parent, str) or parent not in raw:
+                t = raw[chain[-1]]
+                raise ObjectDatabaseError(
+                    f"unknown parent type {parent!r}; known types: {', '.join(sorted(raw))}",
+                    source=str(t.source), field=f"{t.name}.parent")
+            if parent in chain:
+                cycle = " -> ".join(chain[chain.index(parent):] + [parent])
+                t = raw[name]
+                raise ObjectDatabaseError(f"inheritance cycle {cycle}", source=str(t.source), field=f"{name}.parent")
+            chain.append(parent)
+
+    def resolve(self, raw: Mapping[str, _RawType]) -> dict[str, ObjectType]:
+        resolved: dict[str, ObjectType] = {}
+        for name in raw:
+            lineage = self.lineage(raw, name)
+            for type_name in reversed(lineage):  # root first, so parents are ready
+                if type_name not in resolved:
+                    parent = raw[type_name].body.get("parent")
+                    resolved[type_name] = self.resolve_one(raw[type_name], resolved.get(parent), lineage[lineage.index(type_name):])
+        return resolved
+
+    def resolve_one(self, raw: _RawType, parent: ObjectType | None, ancestors: tuple[str, ...]) -> ObjectType:
+        body, src = raw.body, str(raw.source)
+        pddl_type = body.get("pddl_type", parent.pddl_type if parent else "object")
+        if not isinstance(pddl_type, str) or not is_identifier(pddl_type):
+            raise ObjectDatabaseError(f"pddl_type {pddl_type!r} is not a PDDL identifier", source=src, field=f"{raw.name}.pddl_type")
+        geometry = parent.geometry if parent else None
+        if "geometry" in body:
+            geometry = self.geometry(body["geometry"], raw)
+        physics = self.physics(body.get("physics") or {}, parent.physics if parent else Physics(), raw)
+        predicates = dict(parent.predicates) if parent else {}
+        for pname, pbody in (body.get("predicates") or {}).items():
+            predicates[pname] = self.predicate(pname, pbody, predicates.get(pname), raw)
+        robot = parent.robot if parent else None
+        if "robot" in body:
+            robot = self.robot(body["robot"], raw)
+        abstract = self.flag(body, "abstract", False, raw)
+        fixed = self.flag(body, "fixed", parent.fixed if parent else False, raw)
+        if not abstract and robot is None:
+            if geometry is None:
+                raise ObjectDatabaseError("a concrete type needs a geometry (or 'abstract: true')", source=src, field=f"{raw.name}.geometry")
+            if physics.mass is None and physics.density is None and not fixed:
+                raise ObjectDatabaseError("a concrete movable type needs physics.mass or physics.density", source=src, field=f"{raw.name}.physics")
+        return ObjectType(
+            name=raw.name, parent=body.get("parent"), pddl_type=pddl_type, ancestors=ancestors, source=raw.source,
+            abstract=abstract, fixed=fixed, geometry=geometry, physics=physics, predicates=predicates, robot=robot)
+
+    # --- sections -----------------------------------------------------------------------------
+    @staticmethod
+    def flag(body: Mapping[str, Any], key: str, default: bool, raw: _RawType) -> bool:
+        value = body.get(key, default)
+        if not isinstance(value, bool):
+            raise ObjectDatabaseError(f"must be true or false, got {value!r}", source=str(raw.source), field=f"{raw.name}.{key}")
+        return value
+
+    def geometry(self, body: Any, raw: _RawType) -> Geometry:
+        src, fld = str(raw.source), f"{raw.name}.geometry"
+        if not isinstance(body, dict):
+            raise ObjectDatabaseError("must be a mapping with 'shape'", source=src, field=fld)
+        _no_unknown(body, GEOMETRY_KEYS, src, fld)
+        shape = body.get("shape")
+        if shape not in SHAPES:
+            raise ObjectDatabaseError(f"shape {shape!r} is not one of {', '.join(SHAPES)}", source=src, field=f"{fld}.shape")
+        color = tuple(_numbers(body.get("color", [0.6, 0.6, 0.6, 1.0]), 4, src, f"{fld}.color", positive=False))
+        if shape == "mesh":
+            mesh, unresolved = self.mesh_path(body.get("mesh"), raw)
+            scale = _number(body.get("scale", 1.0), src, f"{fld}.scale", positive=True)
+            return Geometry(shape, (), mesh, scale, bool(body.get("convex", True)), unresolved, color)  # type: ignore[arg-type]
+        size = tuple(_numbers(body.get("size"), SIZE_LENGTH[shape], src, f"{fld}.size", positive=True))
+        return Geometry(shape, size, color=color)  # type: ignore[arg-type]
+
+    def mesh_path(self, value: Any, raw: _RawType) -> tuple[Path | None, str | None]:
+        src, fld = str(raw.source), f"{raw.name}.geometry.mesh"
+        if not isinstance(value, str) or not value:
+            raise ObjectDatabaseError("a mesh geometry needs 'mesh': a path to an OBJ file", source=src, field=fld)
+        if value.startswith(DATASET_SCHEME):
+            dataset, _, rest = value[len(DATASET_SCHEME):].partition("/")
+            if dataset not in self.datasets:
+                return None, value
+            path = self.datasets[dataset] / rest
+        else:
+            path = (raw.source.parent / value).resolve()
+        if not path.is_file():
+            raise ObjectDatabaseError(f"mesh file {path} not found", source=src, field=fld)
+        return path, None
+
+    def physics(self, body: Any, base: Physics, raw: _RawType) -> Physics:
+        src, fld = str(raw.source), f"{raw.name}.physics"
+        if not isinstance(body, dict):
+            raise ObjectDatabaseError("must be a mapping", source=src, field=fld)
+        _no_unknown(body, PHYSICS_KEYS, src, fld)
+        values = dict(base.__dict__)
+        if "mass" in body and "density" in body:
+            raise ObjectDatabaseError("give mass or density, not both", source=src, field=fld)
+        if "mass" in body:
+            values.update(mass=_number(body["mass"], src, f"{fld}.mass", positive=True), density=None)
+        if "density" in body:
+            values.update(density=_number(body["density"], src, f"{fld}.density", positive=True), mass=None)
+        for key in ("friction", "dynamic_friction", "dissipation"):
+            if key in body:
+                values[key] = _number(body[key], src, f"{fld}.{key}", positive=False)
+        if "hydroelastic_modulus" in body:
+            values["hydroelastic_modulus"] = None if body["hydroelastic_modulus"] is None else _number(
+                body["hydroelastic_modulus"], src, f"{fld}.hydroelastic_modulus", positive=True)
+        if "com" in body:
+            values["com"] = tuple(_numbers(body["com"], 3, src, f"{fld}.com", positive=False))
+        if "inertia" in body:
+            values["inertia"] = tuple(_numbers(body["inertia"], 6, src, f"{fld}.inertia", positive=False))
+        return Physics(**values)
+
+    def predicate(self, name: Any, body: Any, inherited: PredicateDecl | None, raw: _RawType) -> PredicateDecl:
+        src, fld = str(raw.source), f"{raw.name}.predicates.{name}"
+        if not isinstance(name, str) or not is_identifier(name):
+            raise ObjectDatabaseError(f"predicate name {name!r} is not a PDDL identifier", source=src, field=f"{raw.name}.predicates")
+        if not isinstance(body, dict):
+            raise ObjectDatabaseError("must be a mapping with 'params' and 'sie'", source=src, field=fld)
+        _no_unknown(body, PREDICATE_KEYS, src, fld)
+        if "params" in body:
+            params = body["params"]
+            if not isinstance(params, list) or not all(isinstance(p, str) and is_identifier(p) for p in params):
+                raise ObjectDatabaseError("params must be a list of PDDL type names", source=src, field=f"{fld}.params")
+            params = tuple(params)
+            if inherited is not None and params != inherited.params:
+                raise ObjectDatabaseError(
+                    f"redeclares the signature {list(params)} of a predicate inherited from {inherited.declared_by!r} "
+                    f"as {list(inherited.params)}; override only 'sie'", source=src, field=f"{fld}.params")
+        elif inherited is not None:
+            params = inherited.params
+        else:
+            raise ObjectDatabaseError("a new predicate needs 'params' (its argument types)", source=src, field=fld)
+        subject = body.get("subject", inherited.subject if inherited else 0)
+        if not isinstance(subject, int) or isinstance(subject, bool) or not 0 <= subject < max(len(params), 1):
+            raise ObjectDatabaseError(f"subject must index one of the {len(params)} params", source=src, field=f"{fld}.subject")
+        sie = inherited.sie if inherited else None
+        if "sie" in body:
+            sie = self.sie_ref(body["sie"], src, f"{fld}.sie")
+        return PredicateDecl(name, params, subject, sie, inherited.declared_by if inherited else raw.name)
+
+    def sie_ref(self, body: Any, src: str, fld: str) -> SIERef | None:
+        if body is None:
+            return None
+        params: dict[str, Any] = {}
+        if isinstance(body, dict):
+            _no_unknown(body, {"class", "params"}, src, fld)
+            params = body.get("params") or {}
+            if not isinstance(params, dict):
+                raise ObjectDatabaseError("params must be a mapping", source=src, field=f"{fld}.params")
+            body = body.get("class")
+        if not isinstance(body, str) or body.count(":") != 1:
+            raise ObjectDatabaseError(f"SIE reference {body!r} must look like 'sies.module:ClassName'", source=src, field=fld)
+        module, cls = body.split(":")
+        ref = SIERef(module, cls, tuple(sorted(params.items())), f"{src}: {fld}")
+        load_sie_class(self.package, ref)  # a bad reference fails now, not during a teleoperation session
+        return ref
+
+    def robot(self, body: Any, raw: _RawType) -> RobotSpec:
+        src, fld = str(raw.source), f"{raw.name}.robot"
+        if not isinstance(body, dict):
+            raise ObjectDatabaseError("must be a mapping", source=src, field=fld)
+        _no_unknown(body, ROBOT_KEYS, src, fld)
+        model = body.get("model")
+        if not isinstance(model, str):
+            raise ObjectDatabaseError("needs 'model': a path to the robot's SDF/URDF", source=src, field=f"{fld}.model")
+        model_path = (raw.source.parent / model).resolve()
+        if not model_path.is_file():
+            raise ObjectDatabaseError(f"robot model {model_path} not found", source=src, field=f"{fld}.model")
+        joints = body.get("joints")
+        if not isinstance(joints, list) or not joints or not all(isinstance(j, str) for j in joints):
+            raise ObjectDatabaseError("joints must be a non-empty list of joint names", source=src, field=f"{fld}.joints")
+        gripper = None
+        if body.get("gripper") is not None:
+            g = body["gripper"]
+            gfld = f"{fld}.gripper"
+            if not isinstance(g, dict):
+                raise ObjectDatabaseError("must be a mapping", source=src, field=gfld)
+            _no_unknown(g, GRIPPER_KEYS, src, gfld)
+            gjoints = tuple(g.get("joints") or ())
+            missing = [j for j in gjoints if j not in joints]
+            if missing:
+                raise ObjectDatabaseError(f"gripper joint {missing[0]!r} is not in the robot's joints", source=src, field=f"{gfld}.joints")
+            gripper = Gripper(
+                gjoints, str(g.get("tcp_frame", "tcp")),
+                _number(g.get("open", 0.04), src, f"{gfld}.open", positive=False),
+                _number(g.get("closed", 0.0), src, f"{gfld}.closed", positive=False),
+                tuple(g.get("finger_links") or ()))
+        home = body.get("home") or {}
+        if not isinstance(home, dict) or any(j not in joints for j in home):
+            raise ObjectDatabaseError("home must map the robot's joints to positions", source=src, field=f"{fld}.home")
+        return RobotSpec(
+            model=model_path, base_link=str(body.get("base_link", "base")), joints=tuple(joints), gripper=gripper,
+            home=tuple((j, _number(v, src, f"{fld}.home.{j}", positive=False)) for j, v in home.items()),
+            kp=_number(body.get("kp", 400.0), src, f"{fld}.kp", positive=True),
+            kd=_number(body.get("kd", 40.0), src, f"{fld}.kd", positive=True))
+
+
+def _no_unknown(body: Mapping[str, Any], valid: set[str], src: str, fld: str) -> None:
+    unknown = set(body) - valid
+    if unknown:
+        raise ObjectDatabaseError(f"unknown key {sorted(unknown)[0]!r}; valid keys: {', '.join(sorted(valid))}", source=src, field=fld)
+
+
+def _number(value: Any, src: str, fld: str, *, positive: bool) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value or value in (float("inf"), float("-inf")):
+        raise ObjectDatabaseError(f"must be a finite number, got {value!r}", source=src, field=fld)
+    if positive and value <= 0:
+        raise ObjectDatabaseError(f"must be positive, got {value!r}", source=src, field=fld)
+    if not positive and fld.rsplit(".", 1)[-1] in ("friction", "dynamic_friction", "dissipation") and value < 0:
+        raise ObjectDatabaseError(f"must not be negative, got {value!r}", source=src, field=fld)
+    return float(value)
+
+
+def _numbers(value: Any, count: int, src: str, fld: str, *, positive: bool) -> list[float]:
+    if not isinstance(value, (list, tuple)) or len(value) != count:
+        raise ObjectDatabaseError(f"must be a list of {count} numbers, got {value!r}", source=src, field=fld)
+    return [_number(v, src, f"{fld}[{i}]", positive=positive) for i, v in enumerate(value)]
+
+
+# --- SIE modules ------------------------------------------------------------------------------
+def _sie_package(root: Path) -> str:
+    """Register the database root as a package so SIE modules can import each other relatively."""
+    name = "_bridge_odb_" + hashlib.sha1(str(root.resolve()).encode()).hexdigest()[:10]
+    if name not in sys.modules:
+        package = pytypes.ModuleType(name)
+        package.__path__ = [str(root)]  # type: ignore[attr-defined]
+        sys.modules[name] = package
+    return name
+
+
+def load_sie_class(package: str, ref: SIERef) -> type:
+    from ..sie import SIE
+
+    try:
+        module = importlib.import_module(f"{package}.{ref.module}")
+    except ModuleNotFoundError as exc:
+        raise ObjectDatabaseError(f"SIE module {ref.module!r} not found ({exc.msg})", source=ref.source) from None
+    except Exception as exc:  # the module itself is broken
+        raise ObjectDatabaseError(f"SIE module {ref.module!r} failed to import: {type(exc).__name__}: {exc}", source=ref.source) from None
+    cls = getattr(module, ref.cls, None)
+    if not isinstance(cls, type) or not issubclass(cls, SIE):
+        raise ObjectDatabaseError(f"{ref} is not an SIE class (a subclass of bridge.sie.SIE)", source=ref.source)
+    return cls
+
+
+def read_types(root: Path, datasets: Mapping[str, Path]) -> tuple[dict[str, ObjectType], str]:
+    """Resolve every type under `root`; returns the types and the SIE package name."""
+    reader = _Reader(root, datasets)
+    return reader.resolve(reader.read_raw()), reader.package
+
+
+def dataset_names(root: Path) -> set[str]:
+    """Datasets referenced by ``dataset://`` mesh paths, found without resolving anything."""
+    names = set()
+    for path in (root / "types").rglob("*.yaml"):
+        for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
+            if DATASET_SCHEME in line:
+                names.add(line.split(DATASET_SCHEME, 1)[1].split("/", 1)[0].strip())
+    return names

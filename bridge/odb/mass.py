@@ -1,0 +1,61 @@
+"""Mass properties from geometry with Drake's CalcSpatialInertia (uniform density), as the paper does from meshes.
+
+Drake is imported here lazily, so the planning side of bridge works without touching the simulator.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ObjectDatabaseError
+from .database import MassProperties
+from .types import ObjectType
+
+
+def drake_shape(obj_type: ObjectType):
+    """The pydrake Shape for a type's geometry."""
+    from pydrake.geometry import Box, Convex, Cylinder, Mesh, Sphere
+
+    g = obj_type.geometry
+    if g is None:
+        raise ObjectDatabaseError("has no geometry", source=str(obj_type.source), field=obj_type.name)
+    if g.shape == "box":
+        return Box(*g.size)
+    if g.shape == "cylinder":
+        return Cylinder(g.size[0], g.size[1])
+    if g.shape == "sphere":
+        return Sphere(g.size[0])
+    if g.mesh is None:
+        name = g.unresolved.split("://", 1)[1].split("/", 1)[0] if g.unresolved else "?"
+        raise ObjectDatabaseError(
+            f"mesh {g.unresolved} needs the dataset {name!r}: pass --dataset {name}=PATH or set "
+            f"BRIDGE_DATASET_{name.upper().replace('-', '_')}", source=str(obj_type.source), field=f"{obj_type.name}.geometry.mesh")
+    return Convex(str(g.mesh), g.scale) if g.convex else Mesh(str(g.mesh), g.scale)
+
+
+def compute_mass_properties(obj_type: ObjectType) -> MassProperties:
+    from pydrake.multibody.tree import CalcSpatialInertia
+
+    phys = obj_type.physics
+    where = dict(source=str(obj_type.source), field=f"{obj_type.name}.physics")
+    if obj_type.geometry is None:
+        raise ObjectDatabaseError("mass properties need a geometry", **where)
+    unit = CalcSpatialInertia(drake_shape(obj_type), 1.0)  # mass == volume at unit density
+    volume = unit.get_mass()
+    if volume <= 0:
+        raise ObjectDatabaseError("geometry has no volume (is the mesh closed?)", **where)
+    if phys.mass is not None:
+        mass = phys.mass
+    elif phys.density is not None:
+        mass = phys.density * volume
+    else:
+        raise ObjectDatabaseError("needs mass or density", **where)
+    geometric_com = np.array(unit.get_com())
+    com = np.array(phys.com) if phys.com is not None else geometric_com
+    if phys.inertia is not None:
+        ixx, iyy, izz, ixy, ixz, iyz = phys.inertia
+        inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    else:
+        # unit-density inertia about the geometric centroid, scaled to the mass
+        about_com = unit.Shift(geometric_com).CalcRotationalInertia().CopyToFullMatrix3()
+        inertia = about_com * (mass / volume)
+    return MassProperties(mass, com, inertia)

@@ -1,0 +1,129 @@
+"""What the object database knows about a type, as frozen values.
+
+The loader (`loader.py`) builds these from YAML after resolving inheritance, so every field here is final:
+a subtype's `ObjectType` already carries what it inherited.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+SHAPES = ("box", "cylinder", "sphere", "mesh")
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Collision and visual shape in the object's own frame (origin at the geometric centre for primitives).
+
+    box: `size` = (x, y, z) full lengths; cylinder: (radius, length) along z; sphere: (radius,);
+    mesh: `mesh` path (OBJ), scaled by `scale`, `convex` collision hull when True.
+    A mesh given as ``dataset://NAME/...`` whose dataset root is unknown has `mesh` None and `unresolved` set.
+    """
+
+    shape: str
+    size: tuple[float, ...] = ()
+    mesh: Path | None = None
+    scale: float = 1.0
+    convex: bool = True
+    unresolved: str | None = None
+    color: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
+
+
+@dataclass(frozen=True)
+class Physics:
+    """Mass properties and contact parameters.
+
+    Exactly one of `mass` and `density` drives the mass; `com` and `inertia` (about the centre of mass,
+    [ixx, iyy, izz, ixy, ixz, iyz]) are computed from the geometry when not given.
+    """
+
+    mass: float | None = None
+    density: float | None = None
+    com: tuple[float, float, float] | None = None
+    inertia: tuple[float, ...] | None = None
+    friction: float = 0.5
+    dynamic_friction: float | None = None  # defaults to `friction`
+    hydroelastic_modulus: float | None = None  # Pa; None = rigid (or point contact for meshes)
+    dissipation: float = 3.0  # Hunt-Crossley dissipation, s/m
+
+    @property
+    def mu_dynamic(self) -> float:
+        return self.friction if self.dynamic_friction is None else self.dynamic_friction
+
+
+@dataclass(frozen=True)
+class SIERef:
+    """Where an SIE lives: ``module:Class`` under the database root, plus keyword parameters."""
+
+    module: str
+    cls: str
+    params: tuple[tuple[str, Any], ...] = ()
+    source: str = ""  # "file: field" for messages
+
+    def __str__(self) -> str:
+        return f"{self.module}:{self.cls}"
+
+
+@dataclass(frozen=True)
+class PredicateDecl:
+    """A predicate a type provides: its PDDL parameter types and which argument is the providing object."""
+
+    name: str
+    params: tuple[str, ...]
+    subject: int = 0
+    sie: SIERef | None = None
+    declared_by: str = ""  # the type that first declared the signature
+
+    @property
+    def arity(self) -> int:
+        return len(self.params)
+
+
+@dataclass(frozen=True)
+class Gripper:
+    joints: tuple[str, ...]
+    tcp_frame: str
+    open_position: float
+    closed_position: float
+    finger_links: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A robot type's model and how telemetry drives it."""
+
+    model: Path
+    base_link: str
+    joints: tuple[str, ...]  # every actuated joint, in telemetry order (arm then gripper)
+    gripper: Gripper | None = None
+    home: tuple[tuple[str, float], ...] = ()
+    kp: float = 400.0
+    kd: float = 40.0
+
+    def home_positions(self) -> dict[str, float]:
+        base = {j: 0.0 for j in self.joints}
+        base.update(dict(self.home))
+        return base
+
+
+@dataclass(frozen=True)
+class ObjectType:
+    name: str
+    parent: str | None
+    pddl_type: str
+    ancestors: tuple[str, ...]  # self first, then parent, ..., root
+    source: Path
+    abstract: bool = False
+    fixed: bool = False  # welded to the world (tables, shelves)
+    geometry: Geometry | None = None
+    physics: Physics = field(default_factory=Physics)
+    predicates: Mapping[str, PredicateDecl] = field(default_factory=dict)
+    robot: RobotSpec | None = None
+
+    def is_a(self, type_name: str) -> bool:
+        return type_name in self.ancestors
+
+    @property
+    def is_robot(self) -> bool:
+        return self.robot is not None

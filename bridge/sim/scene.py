@@ -1,0 +1,264 @@
+"""Build the Drake diagram of a world state: table and objects from the object database, the robot tracking
+telemetry through PD-controlled actuators.
+
+The diagram is built once per scene *structure* (which objects, of which types, where the fixtures stand, which
+robot) and reused: initial poses, friction, contact stiffness, mass and centre of mass are written into a fresh
+context for every replay (`Scene.new_context`), so a fit never rebuilds the diagram.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
+
+import numpy as np
+from pydrake.geometry import AddCompliantHydroelasticProperties, AddContactMaterial, ProximityProperties, RoleAssign
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import (
+    AddMultibodyPlant,
+    CoulombFriction,
+    MultibodyPlantConfig,
+)
+from pydrake.multibody.tree import SpatialInertia, UnitInertia
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import TrajectorySource
+
+from ..errors import SceneError
+from ..odb import ObjectDatabase, ObjectType
+from ..odb.mass import drake_shape
+from ..values import Pose
+from ..world import WorldState
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Simulator settings. The defaults were probed on this project's scenes (see docs/simulation.md)."""
+
+    time_step: float = 0.002
+    contact_model: str = "hydroelastic_with_fallback"
+    discrete_contact_approximation: str = "lagged"
+    resolution_hint: float = 0.01  # m, hydroelastic mesh resolution for compliant primitives
+    robot_modulus: float = 1.0e7  # Pa, robot links' compliance (fingers need it to grasp)
+
+
+@dataclass(frozen=True)
+class ObjectParams:
+    """Per-object values written into a context. None keeps the object database's value."""
+
+    friction: float | None = None
+    dynamic_friction: float | None = None
+    hydroelastic_modulus: float | None = None
+    dissipation: float | None = None
+    mass: float | None = None
+    com: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True)
+class SceneParams:
+    """Everything a replay may vary without rebuilding the diagram."""
+
+    objects: Mapping[str, ObjectParams] = field(default_factory=dict)
+    external_forces: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)  # N, world frame, at the COM
+
+
+def to_drake(pose: Pose) -> RigidTransform:
+    w, x, y, z = pose.quat
+    from pydrake.common.eigen_geometry import Quaternion
+
+    return RigidTransform(Quaternion(w, x, y, z), np.asarray(pose.xyz))
+
+
+def from_drake(X: RigidTransform) -> Pose:
+    q = X.rotation().ToQuaternion()
+    return Pose(tuple(X.translation()), (q.w(), q.x(), q.y(), q.z()))
+
+
+def proximity(obj_type: ObjectType, config: SimConfig, params: ObjectParams | None = None) -> ProximityProperties:
+    phys = obj_type.physics
+    params = params or ObjectParams()
+    mu_s = params.friction if params.friction is not None else phys.friction
+    mu_d = params.dynamic_friction if params.dynamic_friction is not None else (
+        mu_s if params.friction is not None else phys.mu_dynamic)
+    props = ProximityProperties()
+    AddContactMaterial(
+        dissipation=params.dissipation if params.dissipation is not None else phys.dissipation,
+        friction=CoulombFriction(mu_s, min(mu_d, mu_s)), properties=props)
+    modulus = params.hydroelastic_modulus if params.hydroelastic_modulus is not None else phys.hydroelastic_modulus
+    if modulus is not None:
+        AddCompliantHydroelasticProperties(config.resolution_hint, modulus, props)
+    return props
+
+
+@dataclass
+class Scene:
+    """A built diagram and the handles a replay needs. Build with `build_scene`."""
+
+    world: WorldState
+    odb: ObjectDatabase
+    config: SimConfig
+    diagram: object
+    plant: object
+    scene_graph: object
+    bodies: dict[str, object]  # free objects' bodies
+    geometries: dict[str, list]  # object name -> collision geometry ids (free and fixed)
+    robot_instance: object | None
+    robot_joints: tuple[str, ...]
+    desired_source: object | None
+    force_source: object | None
+    body_names: dict[object, str]  # BodyIndex -> 'box' or 'robot/link'
+
+    # --- contexts -------------------------------------------------------------------------------
+    def new_context(self, world: WorldState | None = None, params: SceneParams | None = None):
+        """A fresh context with the world's initial poses and robot joints, and `params` written in."""
+        world = world or self.world
+        context = self.diagram.CreateDefaultContext()
+        plant_ctx = self.plant.GetMyMutableContextFromRoot(context)
+        for name, body in self.bodies.items():
+            self.plant.SetFreeBodyPose(plant_ctx, body, to_drake(world.objects[name].pose))
+        if self.robot_instance is not None and world.robot is not None:
+            self.plant.SetPositions(plant_ctx, self.robot_instance, self.robot_positions(world.robot.joint_positions()))
+        self.apply_params(context, params or SceneParams())
+        return context
+
+    def robot_positions(self, joints: Mapping[str, float]) -> np.ndarray:
+        """Joint values (by name) in the plant's position order of the robot instance."""
+        q = np.zeros(self.plant.num_positions(self.robot_instance))
+        offset = self._robot_q0()
+        for name, value in joints.items():
+            q[self.plant.GetJointByName(name, self.robot_instance).position_start() - offset] = value
+        return q
+
+    def _robot_q0(self) -> int:
+        starts = [self.plant.get_joint(j).position_start() for j in self.plant.GetJointIndices(self.robot_instance)
+                  if self.plant.get_joint(j).num_positions() > 0]
+        return min(starts)
+
+    def actuator_columns(self, joint_names: Sequence[str]) -> np.ndarray:
+        """For each actuator of the robot (desired-state order), the column of that joint in `joint_names`."""
+        index = {n: i for i, n in enumerate(joint_names)}
+        columns = []
+        for a in self.plant.GetJointActuatorIndices(self.robot_instance):
+            joint = self.plant.get_joint_actuator(a).joint().name()
+            if joint not in index:
+                raise SceneError(f"telemetry has no column for the actuated joint {joint!r}")
+            columns.append(index[joint])
+        return np.asarray(columns)
+
+    def set_desired(self, times: np.ndarray, positions: np.ndarray) -> None:
+        """Make the robot track `positions` (rows: samples, columns: actuators in desired-state order).
+
+        First-order hold between samples, its derivative as the desired velocity; the source holds the last
+        sample after the end. The source is part of the diagram: one replay at a time per scene.
+        """
+        from pydrake.trajectories import PiecewisePolynomial
+
+        if len(times) == 1:
+            times, positions = np.array([0.0, 1.0]), np.vstack([positions, positions])
+        trajectory = PiecewisePolynomial.FirstOrderHold(np.asarray(times, dtype=float), np.asarray(positions, dtype=float).T)
+        self.desired_source.UpdateTrajectory(trajectory)
+
+    def apply_params(self, context, params: SceneParams) -> None:
+        plant_ctx = self.plant.GetMyMutableContextFromRoot(context)
+        sg_ctx = self.scene_graph.GetMyMutableContextFromRoot(context)
+        for name, p in params.objects.items():
+            if name not in self.geometries:
+                raise SceneError(f"unknown object {name!r}; objects: {', '.join(sorted(self.geometries))}", field="params")
+            obj_type = self.odb.get(self.world.objects[name].type)
+            if any(v is not None for v in (p.friction, p.dynamic_friction, p.hydroelastic_modulus, p.dissipation)):
+                props = proximity(obj_type, self.config, p)
+                for gid in self.geometries[name]:
+                    self.scene_graph.AssignRole(sg_ctx, self.plant.get_source_id(), gid, props, RoleAssign.kReplace)
+            if (p.mass is not None or p.com is not None) and name in self.bodies:
+                body = self.bodies[name]
+                mp = self.odb.mass_properties(obj_type.name)
+                mass = p.mass if p.mass is not None else mp.mass
+                com = np.asarray(p.com if p.com is not None else mp.com, dtype=float)
+                I_com = mp.inertia * (mass / mp.mass)
+                G = UnitInertia(*(np.diag(I_com) / mass), *(I_com[[0, 0, 1], [1, 2, 2]] / mass))
+                M_com = SpatialInertia(mass, np.zeros(3), G)
+                body.SetSpatialInertiaInBodyFrame(plant_ctx, M_com.Shift(-com))
+        if self.force_source is not None:
+            self.force_source.set_forces(self.force_source.GetMyMutableContextFromRoot(context), params.external_forces)
+
+
+def _spatial_inertia(odb: ObjectDatabase, type_name: str) -> SpatialInertia:
+    mp = odb.mass_properties(type_name)
+    I = mp.inertia
+    G = UnitInertia(I[0, 0] / mp.mass, I[1, 1] / mp.mass, I[2, 2] / mp.mass,
+                    I[0, 1] / mp.mass, I[0, 2] / mp.mass, I[1, 2] / mp.mass)
+    return SpatialInertia(mp.mass, np.zeros(3), G).Shift(-np.asarray(mp.com))  # about the body origin
+
+
+def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDatabase, config: SimConfig):
+    """A free body (or anchored geometry for fixtures) with collision and visual geometry."""
+    g = obj_type.geometry
+    if g is None:
+        raise SceneError(f"object {name!r} of type {obj_type.name!r} has no geometry", source=str(obj_type.source))
+    shape = drake_shape(obj_type)
+    if obj_type.fixed:
+        body, X_BG = plant.world_body(), to_drake(pose)
+    else:
+        body, X_BG = plant.AddRigidBody(name, _spatial_inertia(odb, obj_type.name)), RigidTransform()
+    gid = plant.RegisterCollisionGeometry(body, X_BG, shape, f"{name}/collision", proximity(obj_type, config))
+    plant.RegisterVisualGeometry(body, X_BG, shape, f"{name}/visual", np.array(g.color))
+    return (None if obj_type.fixed else body), [gid]
+
+
+def add_robot(plant, world: WorldState, odb: ObjectDatabase):
+    spec = odb.get(world.robot.type).robot
+    parser = Parser(plant, world.robot.name)
+    try:
+        (instance,) = parser.AddModels(str(spec.model))
+    except Exception as exc:
+        raise SceneError(f"cannot load robot model: {exc}", source=str(spec.model)) from None
+    try:
+        base = plant.GetBodyByName(spec.base_link, instance)
+    except Exception:
+        raise SceneError(f"robot model has no link {spec.base_link!r} (robot.base_link)", source=str(spec.model)) from None
+    plant.WeldFrames(plant.world_frame(), base.body_frame(), to_drake(world.robot.base_pose))
+    for joint in spec.joints:
+        if not plant.HasJointNamed(joint, instance):
+            raise SceneError(f"robot model has no joint {joint!r} listed in the object database", source=str(spec.model))
+    return instance, spec
+
+
+def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimConfig(),
+                extras: Sequence = ()) -> Scene:
+    """Assemble the diagram in a fixed order: plant and scene graph, objects, robot, extras, sources."""
+    builder = DiagramBuilder()
+    plant_config = MultibodyPlantConfig(
+        time_step=config.time_step, contact_model=config.contact_model,
+        discrete_contact_approximation=config.discrete_contact_approximation)
+    plant, scene_graph = AddMultibodyPlant(plant_config, builder)
+    bodies, geometries = {}, {}
+    for name, obj in world.objects.items():
+        body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config)
+        geometries[name] = gids
+        if body is not None:
+            bodies[name] = body
+    instance, joints = None, ()
+    if world.robot is not None:
+        instance, spec = add_robot(plant, world, odb)
+        joints = spec.joints
+    for extra in extras:
+        extra.add_to(plant, world, odb, config)
+    plant.Finalize()
+    body_names = {b.index(): n for n, b in bodies.items()}
+    if instance is not None:
+        for index in plant.GetBodyIndices(instance):
+            body_names[index] = f"{world.robot.name}/{plant.get_body(index).name()}"
+    desired = forces = None
+    if instance is not None and plant.num_actuated_dofs(instance) > 0:
+        from pydrake.trajectories import PiecewisePolynomial
+
+        hold = PiecewisePolynomial.ZeroOrderHold([0.0, 1.0], np.zeros((plant.num_actuated_dofs(instance), 2)))
+        desired = builder.AddSystem(TrajectorySource(hold, output_derivative_order=1))
+        builder.Connect(desired.get_output_port(), plant.get_desired_state_input_port(instance))
+    if bodies:
+        from .forces import ConstantForces
+
+        forces = builder.AddSystem(ConstantForces(list(bodies.items())))
+        builder.Connect(forces.get_output_port(), plant.get_applied_spatial_force_input_port())
+    diagram = builder.Build()
+    return Scene(world, odb, config, diagram, plant, scene_graph, bodies, geometries, instance, joints,
+                 desired, forces, body_names)

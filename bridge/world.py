@@ -1,0 +1,248 @@
+"""The world state: objects with poses, the robot, and the facts the planner believes.
+
+File format (YAML)::
+
+    name: kitchen_table                     # optional
+    objects:
+      table:   {type: table, pose: {xyz: [0.75, 0, 0.725]}}
+      big_box: {type: big_box, pose: {xyz: [0.6, 0.1, 0.875], rpy: [0, 0, 0.3]}}   # rpy in radians
+      cup:     {type: cup, pose: {xyz: [...], quat: [1, 0, 0, 0]}}                     # quat is w, x, y, z
+    robot: {name: justin, type: demo_arm, pose: {xyz: [0, 0, 0.75]}, joints: {arm_joint1: 0.0, ...}}
+    facts: ["(on big_box table)", "(upright big_box)"]
+    goal: "(and (on big_box tray))"         # optional, PDDL
+
+Loading validates everything against the object database; saving writes a temp file and renames it, so a
+world-state file is never half-written.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import yaml
+
+from .errors import BridgeError, WorldStateError
+from .names import NameMap, build_name_map
+from .odb import ObjectDatabase
+from .odb.loader import read_yaml
+from .values import Fact, Pose
+
+WORLD_KEYS = {"name", "objects", "robot", "facts", "goal"}
+OBJECT_KEYS = {"type", "pose"}
+ROBOT_KEYS = {"name", "type", "pose", "joints"}
+POSE_KEYS = {"xyz", "rpy", "quat"}
+
+
+@dataclass(frozen=True)
+class ObjectState:
+    name: str
+    type: str
+    pose: Pose
+
+
+@dataclass(frozen=True)
+class RobotState:
+    name: str
+    type: str
+    base_pose: Pose = Pose()
+    joints: tuple[tuple[str, float], ...] = ()
+
+    def joint_positions(self) -> dict[str, float]:
+        return dict(self.joints)
+
+
+@dataclass(frozen=True)
+class WorldState:
+    objects: Mapping[str, ObjectState]
+    facts: frozenset[Fact] = frozenset()
+    robot: RobotState | None = None
+    goal: str | None = None
+    name: str = "world"
+    names: NameMap = field(default_factory=NameMap, compare=False)
+
+    def all_names(self) -> list[str]:
+        """Objects, then the robot: everything a fact may name."""
+        return list(self.objects) + ([self.robot.name] if self.robot else [])
+
+    def type_name(self, name: str) -> str:
+        if self.robot is not None and name == self.robot.name:
+            return self.robot.type
+        return self.objects[name].type
+
+    def with_facts(self, facts: Iterable[Fact]) -> "WorldState":
+        return replace(self, facts=frozenset(facts))
+
+    def with_poses(self, poses: Mapping[str, Pose]) -> "WorldState":
+        objects = {n: replace(o, pose=poses.get(n, o.pose)) for n, o in self.objects.items()}
+        return replace(self, objects=objects)
+
+
+# --- validation ---------------------------------------------------------------------------------
+def parse_pose(body: Any, source: str | None, fld: str, error: type[BridgeError] = WorldStateError) -> Pose:
+    """``{xyz: [x, y, z], rpy: [r, p, y]}`` or ``{xyz: [...], quat: [w, x, y, z]}``."""
+    if not isinstance(body, dict):
+        raise error("a pose is a mapping {xyz: [x, y, z], rpy: [r, p, y]} or {xyz, quat: [w, x, y, z]}", source=source, field=fld)
+    unknown = set(body) - POSE_KEYS
+    if unknown:
+        raise error(f"unknown key {sorted(unknown)[0]!r}; valid keys: xyz, rpy, quat", source=source, field=fld)
+    if "rpy" in body and "quat" in body:
+        raise error("give rpy or quat, not both", source=source, field=fld)
+    try:
+        xyz = _vector(body.get("xyz", [0, 0, 0]), 3)
+        if "quat" in body:
+            return Pose(xyz, _vector(body["quat"], 4))  # type: ignore[arg-type]
+        return Pose.from_rpy(xyz, _vector(body.get("rpy", [0, 0, 0]), 3))
+    except (BridgeError, TypeError, ValueError) as exc:
+        raise error(str(exc), source=source, field=fld) from None
+
+
+def _vector(value: Any, n: int) -> tuple[float, ...]:
+    if not isinstance(value, (list, tuple)) or len(value) != n or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
+    ):
+        raise ValueError(f"expected a list of {n} numbers, got {value!r}")
+    if not all(v == v and abs(v) != float("inf") for v in value):
+        raise ValueError(f"expected finite numbers, got {value!r}")
+    return tuple(float(v) for v in value)
+
+
+def check_fact(fact: Fact, world: WorldState, odb: ObjectDatabase, source: str | None, fld: str,
+               error: type[BridgeError] = WorldStateError) -> None:
+    """Declared predicate, right arity, known objects of the right PDDL types."""
+    decl = odb.predicates.get(fact.predicate)
+    if decl is None:
+        raise error(f"undeclared predicate {fact.predicate!r} in {fact}; declared: {', '.join(sorted(odb.predicates))}",
+                    source=source, field=fld)
+    if len(fact.args) != decl.arity:
+        raise error(f"{fact}: {fact.predicate} takes {decl.arity} argument(s) ({' '.join(decl.params)}), got {len(fact.args)}",
+                    source=source, field=fld)
+    known = set(world.all_names())
+    for arg, param in zip(fact.args, decl.params):
+        if arg not in known:
+            raise error(f"{fact}: unknown object {arg!r}; objects: {', '.join(sorted(known))}", source=source, field=fld)
+        actual = odb.get(world.type_name(arg)).pddl_type
+        if not odb.pddl_is_a(actual, param):
+            raise error(f"{fact}: {arg!r} is a {actual}, but {fact.predicate} expects a {param} there", source=source, field=fld)
+
+
+def world_from_dict(data: Any, odb: ObjectDatabase, source: str | None = None) -> WorldState:
+    if not isinstance(data, dict):
+        raise WorldStateError("a world state is a mapping with 'objects' (and 'robot', 'facts', 'goal')", source=source)
+    unknown = set(data) - WORLD_KEYS
+    if unknown:
+        raise WorldStateError(f"unknown key {sorted(unknown)[0]!r}; valid keys: {', '.join(sorted(WORLD_KEYS))}", source=source)
+    objects: dict[str, ObjectState] = {}
+    raw_objects = data.get("objects") or {}
+    if not isinstance(raw_objects, dict):
+        raise WorldStateError("must map object names to {type, pose}", source=source, field="objects")
+    for name, body in raw_objects.items():
+        fld = f"objects.{name}"
+        if not isinstance(name, str) or not name.strip():
+            raise WorldStateError(f"object name {name!r} must be a non-empty string", source=source, field="objects")
+        if not isinstance(body, dict):
+            raise WorldStateError("must be a mapping {type, pose}", source=source, field=fld)
+        bad = set(body) - OBJECT_KEYS
+        if bad:
+            raise WorldStateError(f"unknown key {sorted(bad)[0]!r}; valid keys: type, pose", source=source, field=fld)
+        type_name = body.get("type")
+        if type_name not in odb.types or odb.types[type_name].abstract or odb.types[type_name].is_robot:
+            objects_ok = sorted(n for n in odb.concrete_types() if not odb.types[n].is_robot)
+            raise WorldStateError(f"unknown object type {type_name!r}; known types: {', '.join(objects_ok)}", source=source, field=f"{fld}.type")
+        objects[name] = ObjectState(name, type_name, parse_pose(body.get("pose", {}), source, f"{fld}.pose"))
+    robot = None
+    if data.get("robot") is not None:
+        robot = _robot(data["robot"], odb, source)
+        if robot.name in objects:
+            raise WorldStateError(f"robot name {robot.name!r} is also an object's name", source=source, field="robot.name")
+    names = build_name_map(list(objects) + ([robot.name] if robot else []), source=source, error=WorldStateError)
+    goal = data.get("goal")
+    if goal is not None and not isinstance(goal, str):
+        raise WorldStateError("goal must be a PDDL formula written as text", source=source, field="goal")
+    world = WorldState(objects=objects, robot=robot, goal=goal, name=str(data.get("name", "world")), names=names)
+    raw_facts = data.get("facts") or []
+    if not isinstance(raw_facts, list):
+        raise WorldStateError("must be a list of facts like '(on box table)'", source=source, field="facts")
+    facts = []
+    for i, text in enumerate(raw_facts):
+        fld = f"facts[{i}]"
+        try:
+            fact = Fact.parse(text)
+        except BridgeError as exc:
+            raise WorldStateError(str(exc), source=source, field=fld) from None
+        check_fact(fact, world, odb, source, fld)
+        facts.append(fact)
+    return replace(world, facts=frozenset(facts))
+
+
+def _robot(body: Any, odb: ObjectDatabase, source: str | None) -> RobotState:
+    if not isinstance(body, dict):
+        raise WorldStateError("must be a mapping {name, type, pose, joints}", source=source, field="robot")
+    bad = set(body) - ROBOT_KEYS
+    if bad:
+        raise WorldStateError(f"unknown key {sorted(bad)[0]!r}; valid keys: {', '.join(sorted(ROBOT_KEYS))}", source=source, field="robot")
+    type_name = body.get("type")
+    if type_name not in odb.robot_types():
+        raise WorldStateError(f"unknown robot type {type_name!r}; robot types: {', '.join(sorted(odb.robot_types()))}", source=source, field="robot.type")
+    spec = odb.types[type_name].robot
+    assert spec is not None
+    joints = body.get("joints") or {}
+    if not isinstance(joints, dict):
+        raise WorldStateError("must map joint names to positions", source=source, field="robot.joints")
+    positions = spec.home_positions()
+    for joint, value in joints.items():
+        if joint not in spec.joints:
+            raise WorldStateError(f"robot type {type_name!r} has no joint {joint!r}; joints: {', '.join(spec.joints)}", source=source, field=f"robot.joints.{joint}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+            raise WorldStateError(f"must be a finite number, got {value!r}", source=source, field=f"robot.joints.{joint}")
+        positions[joint] = float(value)
+    name = body.get("name", "robot")
+    if not isinstance(name, str) or not name:
+        raise WorldStateError("must be a non-empty string", source=source, field="robot.name")
+    return RobotState(name, type_name, parse_pose(body.get("pose", {}), source, "robot.pose"), tuple(positions.items()))
+
+
+def load_world_state(path: str | Path, odb: ObjectDatabase) -> WorldState:
+    path = Path(path)
+    return world_from_dict(read_yaml(path, "world-state file", WorldStateError), odb, str(path))
+
+
+# --- saving -------------------------------------------------------------------------------------
+def _pose_dict(pose: Pose) -> dict[str, list[float]]:
+    return {"xyz": [round(v, 9) for v in pose.xyz], "quat": [round(v, 12) for v in pose.quat]}
+
+
+def world_to_dict(world: WorldState) -> dict[str, Any]:
+    data: dict[str, Any] = {"name": world.name, "objects": {
+        n: {"type": o.type, "pose": _pose_dict(o.pose)} for n, o in world.objects.items()}}
+    if world.robot is not None:
+        r = world.robot
+        data["robot"] = {"name": r.name, "type": r.type, "pose": _pose_dict(r.base_pose),
+                         "joints": {j: round(v, 9) for j, v in r.joints}}
+    data["facts"] = [str(f) for f in sorted(world.facts)]
+    if world.goal:
+        data["goal"] = world.goal
+    return data
+
+
+def write_atomic(path: str | Path, text: str) -> None:
+    """Write to a temp file in the same folder, then rename: readers see the old file or the new one, never half."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_world_state(world: WorldState, path: str | Path) -> None:
+    write_atomic(path, "# bridge world state\n" + yaml.safe_dump(world_to_dict(world), sort_keys=False, default_flow_style=None, width=120))

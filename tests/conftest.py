@@ -1,0 +1,35 @@
+"""Fixtures shared by every test layer."""
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def find_mit_push() -> Path | None:
+    candidates = [os.environ.get("BRIDGE_MIT_PUSH"), os.environ.get("BRIDGE_DATASET_MIT_PUSH"),
+                  str(REPO.parent / "shared" / "datasets" / "mit-push")]
+    for c in candidates:
+        if c and (Path(c) / "train").is_dir():
+            return Path(c)
+    return None
+
+
+@pytest.fixture(scope="session")
+def mit_push_root() -> Path:
+    root = find_mit_push()
+    if root is None:
+        pytest.skip("MIT planar pushing dataset not found: set BRIDGE_MIT_PUSH or put it at ../shared/datasets/mit-push")
+    return root
+
+
+@pytest.fixture
+def odb_copy(tmp_path) -> Path:
+    """A writable copy of the bundled object database, robot models pointing back at the repository."""
+    root = tmp_path / "odb"
+    shutil.copytree(REPO / "odb", root, ignore=shutil.ignore_patterns("__pycache__"))
+    robots = root / "types" / "robots.yaml"
+    robots.write_text(robots.read_text().replace("../../models/", f"{REPO}/models/"))
+    return root
