@@ -204,6 +204,16 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     return (None if obj_type.fixed else body), [gid]
 
 
+def add_floor(plant, config: SimConfig) -> None:
+    """A floor at z = 0 so an object pushed off the table lands instead of falling forever."""
+    from pydrake.geometry import AddCompliantHydroelasticPropertiesForHalfSpace, HalfSpace
+
+    props = ProximityProperties()
+    AddContactMaterial(dissipation=3.0, friction=CoulombFriction(0.6, 0.5), properties=props)
+    AddCompliantHydroelasticPropertiesForHalfSpace(0.1, 1.0e7, props)
+    plant.RegisterCollisionGeometry(plant.world_body(), RigidTransform(), HalfSpace(), "floor", props)
+
+
 def add_robot(plant, world: WorldState, odb: ObjectDatabase):
     spec = odb.get(world.robot.type).robot
     parser = Parser(plant, world.robot.name)
@@ -223,7 +233,7 @@ def add_robot(plant, world: WorldState, odb: ObjectDatabase):
 
 
 def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimConfig(),
-                extras: Sequence = ()) -> Scene:
+                extras: Sequence = (), meshcat=None) -> Scene:
     """Assemble the diagram in a fixed order: plant and scene graph, objects, robot, extras, sources."""
     builder = DiagramBuilder()
     plant_config = MultibodyPlantConfig(
@@ -240,6 +250,7 @@ def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimC
     if world.robot is not None:
         instance, spec = add_robot(plant, world, odb)
         joints = spec.joints
+    add_floor(plant, config)
     for extra in extras:
         extra.add_to(plant, world, odb, config)
     plant.Finalize()
@@ -259,6 +270,10 @@ def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimC
 
         forces = builder.AddSystem(ConstantForces(list(bodies.items())))
         builder.Connect(forces.get_output_port(), plant.get_applied_spatial_force_input_port())
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
+
+        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 30))
     diagram = builder.Build()
     return Scene(world, odb, config, diagram, plant, scene_graph, bodies, geometries, instance, joints,
                  desired, forces, body_names)
