@@ -96,7 +96,120 @@ def cmd_apply(args) -> int:
     return 0
 
 
+class Progress:
+    """A one-line progress bar on stderr for long replays (silent when stderr is not a terminal)."""
+
+    def __init__(self, label: str):
+        self.label, self.last = label, -1
+        self.enabled = sys.stderr.isatty()
+
+    def __call__(self, done: float, total: float) -> None:
+        percent = int(100 * done / total) if total else 100
+        if self.enabled and percent != self.last:
+            self.last = percent
+            print(f"\r{self.label}: {percent:3d}% ({done:.1f} / {total:.1f} s simulated)", end="", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.enabled and self.last >= 0:
+            print(file=sys.stderr)
+
+
+def _session(recording_path, odb, args, *, label: str, events=None):
+    from .recording.recording import load_recording
+    from .teleop import infer_recording
+
+    recording = load_recording(recording_path)
+    progress = Progress(label)
+    try:
+        return recording, infer_recording(recording, odb, event_period=args.event_period if events else None,
+                                          on_event=events, progress=progress)
+    finally:
+        progress.close()
+
+
+def _write_outputs(session, odb, args, world_out: Path, problem_out: Path | None) -> None:
+    from .planning.problem import problem_text
+    from .world import save_world_state, write_atomic
+
+    save_world_state(session.inference.world, world_out)
+    if problem_out is not None:
+        write_atomic(problem_out, problem_text(session.inference.world, odb, _domain_name(args)))
+
+
+def _report_failures(session) -> int:
+    for failure in session.inference.failures:
+        print(f"warning: {failure}", file=sys.stderr)
+    return 2 if session.inference.failures else 0
+
+
+def cmd_infer(args) -> int:
+    from .diff import diff_worlds
+    from .teleop import json_lines
+
+    odb = _odb(args)
+    events = json_lines(sys.stdout) if args.events else None
+    recording, session = _session(args.recording, odb, args, label=f"replaying {Path(args.recording).name}", events=events)
+    world_out = Path(args.world_out or Path(args.recording) / "world_after.yaml")
+    problem_out = Path(args.problem_out) if args.problem_out else world_out.with_name("problem_after.pddl")
+    _write_outputs(session, odb, args, world_out, problem_out)
+    out = sys.stderr if args.events else sys.stdout
+    print(diff_worlds(session.before, session.inference.world).text(), file=out)
+    r = session.replay
+    print(f"replayed {r.sim_time:.1f} s at {r.realtime_factor:.1f}x real time; state inferred in "
+          f"{session.seconds_to_state * 1000:.0f} ms; wrote {world_out} and {problem_out}", file=out)
+    return _report_failures(session)
+
+
+def cmd_demo(args) -> int:
+    from .diff import diff_worlds
+
+    odb = _odb(args)
+    folders = sorted(p for p in Path(args.recordings).iterdir() if (p / "world.yaml").is_file())
+    if not folders:
+        raise BridgeError("no recordings (folders with world.yaml) found", source=str(args.recordings))
+    out_root = Path(args.out)
+    status = 0
+    for folder in folders:
+        _, session = _session(folder, odb, args, label=folder.name)
+        out = out_root / folder.name
+        _write_outputs(session, odb, args, out / "world_after.yaml", out / "problem_after.pddl")
+        r = session.replay
+        print(f"== {folder.name}: {r.sim_time:.1f} s replayed at {r.realtime_factor:.1f}x real time, "
+              f"moved: {', '.join(r.moved) or 'nothing'}")
+        print(diff_worlds(session.before, session.inference.world).text())
+        status = max(status, _report_failures(session))
+    print(f"wrote the inferred world states and PDDL problems under {out_root}")
+    return status
+
+
+def cmd_view(args) -> int:
+    from .recording.recording import load_recording
+    from .sim.viewer import write_replay_html
+    from .world import load_world_state
+
+    odb = _odb(args)
+    recording = load_recording(args.recording)
+    world = load_world_state(recording.world_path, odb)
+    out = Path(args.out or Path(args.recording) / "replay.html")
+    write_replay_html(world, recording.telemetry, odb, out, observations=recording.observations)
+    print(f"wrote {out} (open it in a browser)")
+    return 0
+
+
+def cmd_act(args) -> int:
+    from .sim.bodies import make_recording
+
+    odb = _odb(args)
+    recording = make_recording(Path(args.world), args.action, list(args.args), Path(args.out), odb, _templates(args, odb))
+    print(f"wrote recording {recording.folder} ({recording.telemetry.duration:.1f} s of telemetry)")
+    return 0
+
+
 COMMANDS: dict[str, tuple[Callable, str]] = {
+    "infer": (cmd_infer, "replay a recording in Drake and infer the world state after it"),
+    "demo": (cmd_demo, "run the paper's four trials and print what changed in each"),
+    "view": (cmd_view, "write a self-contained HTML replay of a recording (observed poses as ghosts)"),
+    "act": (cmd_act, "make a recording from an action template's body"),
     "check": (cmd_check, "validate the object database and the action templates"),
     "export": (cmd_export, "write the PDDL domain and problem of a world state"),
     "diff": (cmd_diff, "compare two world states (or a world state and a PDDL problem)"),
@@ -105,7 +218,9 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="bridge", description=__doc__.splitlines()[0] if __doc__ else None)
+    parser = argparse.ArgumentParser(
+        prog="bridge", description="Keep a robot's symbolic world state true while a person teleoperates it: "
+        "replay its telemetry in Drake, infer the facts, write PDDL, fit and diagnose the physics.")
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--odb", default=None, help="object database folder (default: the bundled odb/)")
     common.add_argument("--templates", default=str(DEFAULT_TEMPLATES), help="folder with domain.yaml and templates/ (default: %(default)s)")
@@ -135,6 +250,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", help="action template name, e.g. pick")
     p.add_argument("args", nargs="*", help="the action's arguments (object names)")
     p.add_argument("--out", default=None, help="write the successor world state here")
+    p = add("infer")
+    p.add_argument("recording", help="recording folder (world.yaml, telemetry, optional observed.csv)")
+    p.add_argument("--world-out", default=None, help="inferred world state (default: RECORDING/world_after.yaml)")
+    p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: beside --world-out)")
+    p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
+    p.add_argument("--event-period", type=float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
+    p = add("demo")
+    p.add_argument("--recordings", default=str(REPO_ROOT / "demo" / "recordings"), help="folder of recordings (default: the bundled trials)")
+    p.add_argument("--out", default="out/demo", help="where to write inferred states (default: %(default)s)")
+    p = add("view")
+    p.add_argument("recording", help="recording folder")
+    p.add_argument("--out", default=None, help="HTML file (default: RECORDING/replay.html)")
+    p = add("act")
+    p.add_argument("world", help="world state before the action")
+    p.add_argument("action", help="action template, e.g. push_over")
+    p.add_argument("args", nargs="*", help="the action's arguments")
+    p.add_argument("--out", required=True, help="recording folder to write")
     return parser
 
 
