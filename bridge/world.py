@@ -172,6 +172,9 @@ def world_from_dict(data: Any, odb: ObjectDatabase, source: str | None = None) -
             fact = Fact.parse(text)
         except BridgeError as exc:
             raise WorldStateError(str(exc), source=source, field=fld) from None
+        # a name like "Cup 1" cannot stand in a fact as written: facts may use its PDDL name (cup_1)
+        known = set(world.all_names())
+        fact = Fact(fact.predicate, tuple(a if a in known else names.original(a.lower()) for a in fact.args))
         check_fact(fact, world, odb, source, fld)
         facts.append(fact)
     return replace(world, facts=frozenset(facts))
@@ -221,7 +224,7 @@ def world_to_dict(world: WorldState) -> dict[str, Any]:
         r = world.robot
         data["robot"] = {"name": r.name, "type": r.type, "pose": _pose_dict(r.base_pose),
                          "joints": {j: round(v, 9) for j, v in r.joints}}
-    data["facts"] = [str(f) for f in sorted(world.facts)]
+    data["facts"] = [str(Fact(f.predicate, tuple(world.names.pddl(a) for a in f.args))) for f in sorted(world.facts)]
     if world.goal:
         data["goal"] = world.goal
     return data

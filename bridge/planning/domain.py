@@ -48,17 +48,18 @@ def domain_text(odb: ObjectDatabase, templates: Mapping[str, ActionTemplate], *,
 
 
 def pddl_types(odb: ObjectDatabase) -> dict[str, str | None]:
-    """Child -> parent, with children of `object` mapped to None (how the library writes ``- object``)."""
-    return {t: (None if parent == "object" else parent) for t, parent in odb.pddl_types.items() if t != "object"}
+    """Child -> parent as the library wants it: children of `object` map to None.
+
+    `object` itself is listed (with no parent) so that ``?x - object`` passes the library's check; it is not
+    printed. VAL needs the explicit ``- object``: it rejects untyped variables in a typed domain.
+    """
+    return {t: (None if parent == "object" else parent) for t, parent in odb.pddl_types.items()}
 
 
 def predicate_skeletons(odb: ObjectDatabase) -> list[Predicate]:
-    """``(on ?a - movable ?b)``: one predicate per signature; an ``object`` argument is left untyped."""
-    skeletons = []
-    for name, decl in sorted(odb.predicates.items()):
-        terms = [Variable(_letter(i)) if p == "object" else Variable(_letter(i), [p]) for i, p in enumerate(decl.params)]
-        skeletons.append(Predicate(name, *terms))
-    return skeletons
+    """``(on ?a - movable ?b - object)``: one predicate per signature."""
+    return [Predicate(name, *(Variable(_letter(i), [p]) for i, p in enumerate(decl.params)))
+            for name, decl in sorted(odb.predicates.items())]
 
 
 def _letter(i: int) -> str:

@@ -4,7 +4,7 @@
   is declared (a parameter or a quantifier), every object is known. Raises `PddlError` without a source; callers
   add the file and field.
 - `used_requirements`: the PDDL requirements a precondition and effect need, so a domain declares exactly those.
-- `without_object_tags`: ``?x - object`` written as ``?x``, the form the library (and every planner) accepts.
+- `map_terms`: the same formula with its terms replaced (goal objects written in their canonical PDDL names).
 - `ground_text`: a formula printed with its variables replaced by object names, for messages.
 """
 from __future__ import annotations
@@ -96,7 +96,7 @@ class FormulaChecker:
         for term, expected in zip(atom.terms, decl.params):
             actual = self.term_type(term, scope, atom)
             if not self.odb.pddl_is_a(actual, expected):
-                raise PddlError(f"{atom}: {term} is a {actual}, but {name} expects a {expected} there")
+                raise PddlError(f"{atom}: {term} is {article(actual)}, but {name} expects {article(expected)} there")
 
     def term_type(self, term: Term, scope: Scope, where: Formula) -> str:
         if isinstance(term, Variable):
@@ -109,6 +109,11 @@ class FormulaChecker:
             known = ", ".join(sorted(self.objects)) or "none"
             raise PddlError(f"{where}: unknown object {str(term.name)!r}; objects: {known}")
         return self.objects[key]
+
+
+def article(word: str) -> str:
+    """'a box', 'an object'."""
+    return ("an " if word[:1].lower() in "aeiou" else "a ") + word
 
 
 # --- requirements -------------------------------------------------------------------------------
@@ -195,17 +200,6 @@ def _ordered(variables) -> list[Variable]:
     return sorted(variables, key=lambda v: str(v.name))
 
 
-def untyped_object(term: Term) -> Term:
-    """``?x - object`` -> ``?x``: the same meaning, and the only form pddl 0.5.1 accepts."""
-    if isinstance(term, Variable) and {str(t).lower() for t in term.type_tags} == {"object"}:
-        return Variable(term.name)
-    return term
-
-
-def without_object_tags(formula):
-    return None if formula is None else map_terms(formula, untyped_object)
-
-
 def ground_text(formula, binding: Mapping[str, str], names: Callable[[str], str] = str) -> str:
     """`formula` printed with variables bound to object names (`names` maps a PDDL constant to how to print it)."""
 
@@ -223,7 +217,8 @@ def ground_text(formula, binding: Mapping[str, str], names: Callable[[str], str]
     if isinstance(formula, Not):
         return f"(not {ground_text(formula.argument, binding, names)})"
     if isinstance(formula, (ForallCondition, ExistsCondition)):
-        inner = {k: v for k, v in binding.items() if k not in {str(v.name).lower() for v in formula.variables}}
+        bound = {str(v.name).lower() for v in formula.variables}
+        inner = {k: v for k, v in binding.items() if k not in bound}
         declared = " ".join(f"?{v.name}" + (f" - {' '.join(sorted(map(str, v.type_tags)))}" if v.type_tags else "")
                             for v in _ordered(formula.variables))
         return f"({formula.SYMBOL} ({declared}) {ground_text(formula.condition, inner, names)})"

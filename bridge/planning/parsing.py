@@ -2,9 +2,9 @@
 
 Three gaps of pddl 0.5.1 are bridged here, so the rest of the package can trust what it gets:
 
-- The library validates a whole `Domain` while parsing, and rejects ``?x - object`` (it does not count
-  ``object`` as an available type). Actions are therefore parsed without building a `Domain`; the semantic
-  checks (types, predicates, arities, scopes) are ours, in `formulas.py`.
+- The library validates a whole `Domain` while parsing, and rejects ``?x - object`` (it counts ``object`` as an
+  available type only when a domain lists it). Actions are therefore parsed without building a `Domain`; the
+  semantic checks (types, predicates, arities, scopes) are ours, in `formulas.py`.
 - A problem's goal is parsed with an empty requirement set, so ``or``, ``forall`` and ``=`` in a goal fail.
   Goals are parsed with every requirement allowed and checked against the object database afterwards.
 - A parser object keeps state after an error. The grammar is compiled once; every parse gets a fresh transformer.
@@ -27,7 +27,7 @@ from pddl.parser.problem import ProblemTransformer
 from pddl.parser.symbols import ALL_SYMBOLS
 from pddl.requirements import Requirements
 
-from ..errors import PddlError
+from ..errors import BridgeError, PddlError
 from ..values import is_identifier
 
 # Words PDDL (and the library) reserve: no object, action, predicate or type may be called like this.
@@ -67,12 +67,27 @@ class _ProblemTransformer(ProblemTransformer):
         return self._domain_transformer.type_def(args)
 
 
+def relocated(exc: BridgeError, *, source: str | None = None, field: str | None = None) -> BridgeError:
+    """The same error (same class, same message) placed in `source` and `field` (kept from `exc` when not given)."""
+    where = ": ".join(part for part in (exc.source, exc.field) if part)
+    text = str(exc)
+    message = text[len(where) + 2:] if where and text.startswith(where + ": ") else text
+    return type(exc)(message, source=source if source is not None else exc.source,
+                     field=field if field is not None else exc.field)
+
+
 @dataclass(frozen=True)
 class SyntaxProblem:
     """A parse failure: a one-line message and, when the parser knows it, the character offset in the text."""
 
     message: str
     offset: int | None = None
+
+
+class _ParseFailure(Exception):
+    def __init__(self, problem: SyntaxProblem):
+        super().__init__(problem.message)
+        self.problem = problem
 
 
 def _transform(start: str, transformer: Any, text: str) -> Any:
@@ -87,12 +102,6 @@ def _transform(start: str, transformer: Any, text: str) -> Any:
         raise _ParseFailure(SyntaxProblem(_library_message(exc.orig_exc))) from None
     except Exception as exc:  # the library signals with ValueError, AssertionError, its own errors, ...
         raise _ParseFailure(SyntaxProblem(_library_message(exc))) from None
-
-
-class _ParseFailure(Exception):
-    def __init__(self, problem: SyntaxProblem):
-        super().__init__(problem.message)
-        self.problem = problem
 
 
 def _first_line(exc: BaseException) -> str:
@@ -227,6 +236,8 @@ def check_parentheses(text: str, *, allow_forms: bool) -> str | None:
         return f"must be PDDL written as text, got {text!r}"
     code = "\n".join(line.split(";", 1)[0] for line in text.splitlines())
     if not allow_forms:
+        if "either" in code.lower():
+            return "(either ...) types are not supported; give each parameter one type"
         if "(" in code or ")" in code:
             return "parameters are written without parentheses, e.g. '?r - robot ?o - box'"
         return None

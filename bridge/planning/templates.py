@@ -30,8 +30,8 @@ from ..odb import ObjectDatabase
 from ..odb.database import REPO_ROOT
 from ..odb.loader import read_yaml
 from ..values import is_identifier
-from .formulas import FormulaChecker, expand_requirements, used_requirements, variable_type, without_object_tags
-from .parsing import KEYWORDS, SUPPORTED_REQUIREMENTS, parse_action
+from .formulas import FormulaChecker, expand_requirements, used_requirements, variable_type
+from .parsing import KEYWORDS, SUPPORTED_REQUIREMENTS, parse_action, relocated
 
 PDDL_ROOT = REPO_ROOT / "pddl"
 TEMPLATE_KEYS = {"name", "doc", "parameters", "precondition", "effect", "body"}
@@ -61,8 +61,8 @@ class ActionTemplate:
         return " ".join(f"?{v} - {t}" for v, t in self.parameters)
 
     def to_action(self) -> Action:
-        """The library's `Action` (``?x - object`` written ``?x``, see `formulas.untyped_object`)."""
-        params = [Variable(v) if t == "object" else Variable(v, [t]) for v, t in self.parameters]
+        """The library's `Action`."""
+        params = [Variable(v, [t]) for v, t in self.parameters]
         return Action(self.name, params, precondition=self.precondition, effect=self.effect)
 
 
@@ -162,43 +162,36 @@ def load_action_template(path: str | Path, odb: ObjectDatabase) -> ActionTemplat
         raise PddlError("must be text", source=src, field="doc")
 
     fields = {k: data[k] for k in ("parameters", "precondition", "effect")}
+    written = [w.lower() for w in re.findall(r"\?([A-Za-z][-_A-Za-z0-9]*)", fields["parameters"])]
+    twice = sorted({w for w in written if written.count(w) > 1})
+    if twice:
+        raise PddlError(f"parameter ?{twice[0]} is declared twice", source=src, field="parameters")
     try:
         action = parse_action(name, fields)
     except PddlError as exc:
-        raise PddlError(_message(exc), source=src, field=exc.field) from None
-    parameters = _parameters(action, fields["parameters"], odb, src)
+        raise relocated(exc, source=src) from None
+    parameters = _parameters(action, odb, src)
     scope = dict(parameters)
     checker = FormulaChecker(odb)
     for key, check in (("precondition", checker.condition), ("effect", checker.effect)):
         try:
             check(getattr(action, key), scope)
         except PddlError as exc:
-            raise PddlError(_message(exc), source=src, field=key) from None
+            raise relocated(exc, source=src, field=key) from None
     return ActionTemplate(
         name=str(name), parameters=parameters,
-        precondition=without_object_tags(action.precondition), effect=without_object_tags(action.effect),
+        precondition=action.precondition, effect=action.effect,
         body=body, doc=doc.strip(), source=path)
 
 
-def _parameters(action: Action, text: str, odb: ObjectDatabase, src: str) -> tuple[tuple[str, str], ...]:
-    written = [w.lower() for w in re.findall(r"\?([A-Za-z][-_A-Za-z0-9]*)", text)]
-    duplicates = sorted({w for w in written if written.count(w) > 1})
-    if duplicates:
-        raise PddlError(f"parameter ?{duplicates[0]} is declared twice", source=src, field="parameters")
+def _parameters(action: Action, odb: ObjectDatabase, src: str) -> tuple[tuple[str, str], ...]:
     result = []
     for variable in action.parameters:
         try:
             result.append((str(variable.name).lower(), variable_type(variable, odb)))
         except PddlError as exc:
-            raise PddlError(_message(exc), source=src, field="parameters") from None
+            raise relocated(exc, source=src, field="parameters") from None
     return tuple(result)
-
-
-def _message(exc: PddlError) -> str:
-    """The message of an error raised without a source/field, to be raised again with them."""
-    text = str(exc)
-    prefix = f"{exc.field}: " if exc.field else ""
-    return text[len(prefix):] if prefix and text.startswith(prefix) else text
 
 
 def _check_name(value: Any, src: str, fld: str, what: str, *, pddl: bool = True) -> None:

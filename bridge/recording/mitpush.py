@@ -82,7 +82,8 @@ class PushRecording:
 
 # --- file names -----------------------------------------------------------------------------------------
 def parse_push_name(path: str | os.PathLike) -> PushSpec:
-    """The push parameters in a file name such as ``motion_surface=abs_shape=rect1_a=0_v=75_i=2.000_s=0.700_t=-1.047.h5``."""
+    """The push parameters in a file name, e.g.
+    ``motion_surface=abs_shape=rect1_a=0_v=75_i=2.000_s=0.700_t=-1.047.h5``."""
     name = Path(path).name
     match = _NAME.match(name)
     if match is None:
@@ -313,8 +314,8 @@ def estimate_frame_yaw(recording: PushRecording | Sequence[PushRecording], outli
     Candidates whose cost is within `tie_tolerance` (m) of the best are ties, which symmetric shapes cannot
     avoid (a square fits every quarter turn, a circle every angle, a hexagon repeats every 60 deg, an ellipse
     every 180 deg); ties go to the smallest |d|, then to d > 0, so the answer for such shapes is a convention,
-    not a measurement. `refine_window` > 0 then searches +-window around the chosen candidate in 0.25 deg
-    steps, unless the cost is flat there (a circle), when the candidate stays.
+    not a measurement. `refine_window` > 0 then searches +-window around the chosen candidate (1 deg steps,
+    then 0.25 deg around the best), unless the cost is flat there (a circle), when the candidate stays.
     """
     yaws = np.array([_wrap(float(c)) for c in candidates], dtype=float)
     if yaws.size == 0:
@@ -323,10 +324,12 @@ def estimate_frame_yaw(recording: PushRecording | Sequence[PushRecording], outli
     ties = np.nonzero(costs <= costs.min() + tie_tolerance)[0]
     best = float(yaws[min(ties, key=lambda k: (round(abs(yaws[k]), 9), yaws[k] < 0))])
     if refine_window > 0:
-        steps = np.arange(-refine_window, refine_window + 1e-12, math.radians(0.25))
-        fine = frame_yaw_cost(recording, outline, best + steps, pusher_radius)
-        if float(fine.max() - fine.min()) > tie_tolerance:
-            best = best + float(steps[int(np.argmin(fine))])
+        coarse = np.arange(-refine_window, refine_window + 1e-12, math.radians(1.0))
+        cost = frame_yaw_cost(recording, outline, best + coarse, pusher_radius)
+        if float(cost.max() - cost.min()) > tie_tolerance:
+            centre = best + float(coarse[int(np.argmin(cost))])
+            fine = centre + np.radians(np.arange(-1.0, 1.0 + 1e-9, 0.25))
+            best = float(fine[int(np.argmin(frame_yaw_cost(recording, outline, fine, pusher_radius)))])
     return _wrap(best)
 
 

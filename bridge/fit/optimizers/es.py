@@ -19,7 +19,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import FitError
-from .base import GenerationRecord, Progress, StopRule, check_start, check_told, reflect, split_options
+from .base import GenerationRecord, Progress, check_start, check_told, reflect, split_options
 
 _OWN_OPTIONS = ("lam", "mu", "rho", "tau", "sigma_min", "sigma_max")
 _FORMAT = 1
