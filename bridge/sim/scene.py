@@ -11,7 +11,13 @@ from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
-from pydrake.geometry import AddCompliantHydroelasticProperties, AddContactMaterial, ProximityProperties, RoleAssign
+from pydrake.geometry import (
+    AddCompliantHydroelasticProperties,
+    AddContactMaterial,
+    AddRigidHydroelasticProperties,
+    ProximityProperties,
+    RoleAssign,
+)
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import (
@@ -86,6 +92,8 @@ def proximity(obj_type: ObjectType, config: SimConfig, params: ObjectParams | No
     modulus = params.hydroelastic_modulus if params.hydroelastic_modulus is not None else phys.hydroelastic_modulus
     if modulus is not None:
         AddCompliantHydroelasticProperties(config.resolution_hint, modulus, props)
+    elif obj_type.fixed:  # rigid fixtures against compliant objects: cheaper than compliant-compliant, same motion
+        AddRigidHydroelasticProperties(config.resolution_hint, props)
     return props
 
 
