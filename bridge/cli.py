@@ -114,15 +114,28 @@ class Progress:
             print(file=sys.stderr)
 
 
+def _scene_setting(args, world, telemetry, odb):
+    """SceneParams and telemetry from --params (a fitted parameter file), or (None, telemetry) without it."""
+    if not getattr(args, "params", None):
+        return None, telemetry
+    from .fit.params import load_param_file, scene_setting
+
+    return scene_setting(load_param_file(args.params), world, telemetry, odb)
+
+
 def _session(recording_path, odb, args, *, label: str, events=None):
     from .recording.recording import load_recording
-    from .teleop import infer_recording
+    from .teleop import run_session
+    from .world import load_world_state
 
     recording = load_recording(recording_path)
+    before = load_world_state(recording.world_path, odb)
+    params, telemetry = _scene_setting(args, before, recording.telemetry, odb)
     progress = Progress(label)
     try:
-        return recording, infer_recording(recording, odb, event_period=args.event_period if events else None,
-                                          on_event=events, progress=progress)
+        return recording, run_session(before, telemetry, odb, params=params,
+                                      event_period=args.event_period if events else None, on_event=events,
+                                      progress=progress)
     finally:
         progress.close()
 
@@ -191,9 +204,40 @@ def cmd_view(args) -> int:
     recording = load_recording(args.recording)
     world = load_world_state(recording.world_path, odb)
     out = Path(args.out or Path(args.recording) / "replay.html")
-    write_replay_html(world, recording.telemetry, odb, out, observations=recording.observations)
+    params, telemetry = _scene_setting(args, world, recording.telemetry, odb)
+    write_replay_html(world, telemetry, odb, out, observations=recording.observations, params=params)
     print(f"wrote {out} (open it in a browser)")
     return 0
+
+
+def cmd_fit(args) -> int:
+    from .fit.executors import make_executor
+    from .fit.fit import fit_parameters, result_summary
+    from .fit.params import load_param_file
+    from .fit.report import table1, write_report
+    from .fit.rollout import default_spec
+    from .fit.trials import load_trials
+
+    odb = _odb(args)
+    trials = load_trials(args.recordings, odb, max_duration=args.max_duration)
+    spec = load_param_file(args.params) if args.params else default_spec(trials, odb)
+    out = Path(args.out)
+    print(f"bridge fit: {len(trials)} trial(s); free parameters: {', '.join(spec.names) or 'none'}", file=sys.stderr)
+    with make_executor(args.executor, odb, workers=args.workers, scheduler=args.scheduler) as executor:
+        result = fit_parameters(trials, spec, odb=odb, optimizer=args.optimizer, seed=args.seed,
+                                generations=args.generations, popsize=args.popsize, executor=executor,
+                                hold_out=args.hold_out, checkpoint=out, resume=args.resume, progress=_fit_progress)
+    files = write_report(result, out, trials=trials, odb=odb)
+    print(table1(result))
+    print(result_summary(result))
+    print(f"wrote {', '.join(str(f) for f in files.values())}")
+    return 0
+
+
+def _fit_progress(p) -> None:
+    print(f"generation {p.generation}/{p.max_generations}: best e {p.best_e:.6f} (this generation {p.generation_best_e:.6f}), "
+          f"{p.evaluations} candidates, {p.simulations} simulations, {p.failures} failed, {p.elapsed:.1f} s",
+          file=sys.stderr, flush=True)
 
 
 def cmd_act(args) -> int:
@@ -210,6 +254,7 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "demo": (cmd_demo, "run the paper's four trials and print what changed in each"),
     "view": (cmd_view, "write a self-contained HTML replay of a recording (observed poses as ghosts)"),
     "act": (cmd_act, "make a recording from an action template's body"),
+    "fit": (cmd_fit, "fit simulation parameters (friction, mass, ...) to recordings with observed poses"),
     "check": (cmd_check, "validate the object database and the action templates"),
     "export": (cmd_export, "write the PDDL domain and problem of a world state"),
     "diff": (cmd_diff, "compare two world states (or a world state and a PDDL problem)"),
@@ -256,17 +301,41 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: beside --world-out)")
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
+    p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge fit)")
     p = add("demo")
     p.add_argument("--recordings", default=str(REPO_ROOT / "demo" / "recordings"), help="folder of recordings (default: the bundled trials)")
     p.add_argument("--out", default="out/demo", help="where to write inferred states (default: %(default)s)")
+    p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge fit)")
     p = add("view")
     p.add_argument("recording", help="recording folder")
     p.add_argument("--out", default=None, help="HTML file (default: RECORDING/replay.html)")
+    p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge fit)")
     p = add("act")
     p.add_argument("world", help="world state before the action")
     p.add_argument("action", help="action template, e.g. push_over")
     p.add_argument("args", nargs="*", help="the action's arguments")
     p.add_argument("--out", required=True, help="recording folder to write")
+    p = add("fit")
+    p.add_argument("recordings", nargs="+", metavar="RECORDING",
+                   help="recording folders (with observed.csv), MIT .h5 files, or folders of .h5 files")
+    p.add_argument("--out", required=True, metavar="DIR", help="report folder (params.yaml, fit.json, table1.md, "
+                   "figures) and checkpoint.json")
+    p.add_argument("--params", default=None, metavar="FILE", help="parameter file saying what to fit (default: "
+                   "the friction of the moved objects and of what they touch)")
+    p.add_argument("--optimizer", choices=("cmaes", "es"), default="cmaes", help="default: %(default)s")
+    p.add_argument("--generations", type=int, default=30, help="at most this many (default %(default)s; stops "
+                   "earlier when the best error stops improving)")
+    p.add_argument("--popsize", type=int, default=None, help="candidates per generation (default: cmaes 4 + 3 ln D, "
+                   "es 10 D as in the paper)")
+    p.add_argument("--seed", type=int, default=0, help="seeds the optimiser and the hold-out split (default %(default)s)")
+    p.add_argument("--executor", choices=("process", "dask", "serial"), default="process", help="default: %(default)s")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per CPU)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR", help="a dask scheduler's address (with --executor dask)")
+    p.add_argument("--hold-out", type=int, default=None, metavar="N", help="trials kept out of the fit to test it "
+                   "(default: 25%% when there are 4 or more)")
+    p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.json")
+    p.add_argument("--max-duration", type=float, default=None, metavar="S", help="use only the first S seconds of "
+                   "each MIT push")
     return parser
 
 

@@ -389,3 +389,4 @@ def _wrap(angle: float) -> float:
     """Angle in (-pi, pi]."""
     wrapped = math.remainder(angle, 2 * math.pi)
     return math.pi if wrapped == -math.pi else wrapped
+

@@ -105,11 +105,28 @@ class ContactReader:
         if proximity > 0:
             seen = {frozenset((c.body_a, c.body_b)) for c in contacts}
             query = self.scene.scene_graph.get_query_output_port().Eval(self.scene.scene_graph.GetMyContextFromRoot(context))
-            for pair in query.ComputeSignedDistancePairwiseClosestPoints(proximity):
+            for pair in self._near_pairs(query, proximity):
                 a, b = self.name(pair.id_A), self.name(pair.id_B)
                 if a != b and frozenset((a, b)) not in seen:
                     contacts.append(Contact(a, b, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), t))
         return [c for c in contacts if c.body_a != c.body_b]
+
+    def _near_pairs(self, query, proximity: float) -> list:
+        """Signed distances of the pairs closer than `proximity`. Drake has no distance query for some shape
+        pairs (a convex mesh and the floor's half space): then pair by pair, skipping the unsupported ones."""
+        try:
+            return list(query.ComputeSignedDistancePairwiseClosestPoints(proximity))
+        except RuntimeError:
+            pass
+        pairs = []
+        for id_a, id_b in self.scene.scene_graph.model_inspector().GetCollisionCandidates():
+            try:
+                pair = query.ComputeSignedDistancePairClosestPoints(id_a, id_b)
+            except RuntimeError:
+                continue
+            if pair.distance <= proximity:
+                pairs.append(pair)
+        return pairs
 
 
 def _supports(scene: Scene, world: WorldState):

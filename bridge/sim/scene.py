@@ -7,6 +7,7 @@ context for every replay (`Scene.new_context`), so a fit never rebuilds the diag
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
@@ -34,6 +35,17 @@ from ..odb import ObjectDatabase, ObjectType
 from ..odb.mass import drake_shape
 from ..values import Pose
 from ..world import WorldState
+
+
+class _FloorNotice(logging.Filter):
+    """Drops Drake's notice that the floor's half space takes no part in deformable contact (there is none here);
+    it is printed for every context otherwise."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "half spaces are not currently supported for deformable contact" not in record.getMessage()
+
+
+logging.getLogger("drake").addFilter(_FloorNotice())
 
 
 @dataclass(frozen=True)
@@ -169,8 +181,13 @@ class Scene:
         plant_ctx = self.plant.GetMyMutableContextFromRoot(context)
         sg_ctx = self.scene_graph.GetMyMutableContextFromRoot(context)
         for name, p in params.objects.items():
+            if name not in self.geometries and name in self.link_geometries():
+                self._apply_link_params(sg_ctx, name, p)
+                continue
             if name not in self.geometries:
-                raise SceneError(f"unknown object {name!r}; objects: {', '.join(sorted(self.geometries))}", field="params")
+                links = ", ".join(sorted(self.link_geometries()))
+                raise SceneError(f"unknown object {name!r}; objects: {', '.join(sorted(self.geometries))}"
+                                 + (f"; robot links with collision geometry: {links}" if links else ""), field="params")
             obj_type = self.odb.get(self.world.objects[name].type)
             if any(v is not None for v in (p.friction, p.dynamic_friction, p.hydroelastic_modulus, p.dissipation)):
                 props = proximity(obj_type, self.config, p)
@@ -187,6 +204,34 @@ class Scene:
                 body.SetSpatialInertiaInBodyFrame(plant_ctx, M_com.Shift(-com))
         if self.force_source is not None:
             self.force_source.set_forces(self.force_source.GetMyMutableContextFromRoot(context), params.external_forces)
+
+
+    def link_geometries(self) -> dict[str, list]:
+        """Collision geometries of the robot's links by 'robot/link' name (the names contacts use)."""
+        found: dict[str, list] = {}
+        for index, name in self.body_names.items():
+            if name not in self.bodies:
+                gids = self.plant.GetCollisionGeometriesForBody(self.plant.get_body(index))
+                if gids:
+                    found[name] = list(gids)
+        return found
+
+    def _apply_link_params(self, sg_ctx, name: str, p: ObjectParams) -> None:
+        """Friction and dissipation of a robot link, on top of its model's contact properties."""
+        if any(v is not None for v in (p.hydroelastic_modulus, p.mass, p.com)):
+            raise SceneError(f"robot link {name!r}: only friction, dynamic_friction and dissipation can be set",
+                             field="params")
+        inspector = self.scene_graph.model_inspector()
+        for gid in self.link_geometries()[name]:
+            props = ProximityProperties(inspector.GetProximityProperties(gid))
+            old = props.GetPropertyOrDefault("material", "coulomb_friction", CoulombFriction(0.5, 0.5))
+            mu_s = p.friction if p.friction is not None else old.static_friction()
+            mu_d = p.dynamic_friction if p.dynamic_friction is not None else (
+                mu_s if p.friction is not None else old.dynamic_friction())
+            props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu_s, min(mu_d, mu_s)))
+            if p.dissipation is not None:
+                props.UpdateProperty("material", "hunt_crossley_dissipation", float(p.dissipation))
+            self.scene_graph.AssignRole(sg_ctx, self.plant.get_source_id(), gid, props, RoleAssign.kReplace)
 
 
 def _spatial_inertia(odb: ObjectDatabase, type_name: str) -> SpatialInertia:
@@ -212,14 +257,25 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     return (None if obj_type.fixed else body), [gid]
 
 
-def add_floor(plant, config: SimConfig) -> None:
-    """A floor at z = 0 so an object pushed off the table lands instead of falling forever."""
+def floor_height(world: WorldState, odb: ObjectDatabase) -> float:
+    """z of the floor: 0, or the bottom of the lowest fixture when one reaches below 0 (a push surface whose
+    top is at z = 0), so the floor never shares a plane with a fixture's top and touches objects on it."""
+    from ..odb.geometry import z_range
+
+    bottoms = [z_range(odb.get(o.type).geometry, o.pose)[0] for o in world.objects.values()
+               if odb.get(o.type).fixed and odb.get(o.type).geometry is not None]
+    return min([0.0, *bottoms])
+
+
+def add_floor(plant, config: SimConfig, height: float = 0.0) -> None:
+    """A floor at z = `height` so an object pushed off the table lands instead of falling forever."""
     from pydrake.geometry import AddCompliantHydroelasticPropertiesForHalfSpace, HalfSpace
 
     props = ProximityProperties()
     AddContactMaterial(dissipation=3.0, friction=CoulombFriction(0.6, 0.5), properties=props)
     AddCompliantHydroelasticPropertiesForHalfSpace(0.1, 1.0e7, props)
-    plant.RegisterCollisionGeometry(plant.world_body(), RigidTransform(), HalfSpace(), "floor", props)
+    plant.RegisterCollisionGeometry(plant.world_body(), RigidTransform([0.0, 0.0, height]), HalfSpace(), "floor",
+                                    props)
 
 
 def add_robot(plant, world: WorldState, odb: ObjectDatabase):
@@ -258,7 +314,7 @@ def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimC
     if world.robot is not None:
         instance, spec = add_robot(plant, world, odb)
         joints = spec.joints
-    add_floor(plant, config)
+    add_floor(plant, config, floor_height(world, odb))
     for extra in extras:
         extra.add_to(plant, world, odb, config)
     plant.Finalize()

@@ -1,0 +1,49 @@
+"""The catalog of effects a diagnosis can name: one file each, one explicit registry.
+
+To add an effect, write one `Effect` subclass (see base.py) and register it::
+
+    from bridge.diagnosis.effects import register_effect
+    register_effect(MyEffect())
+"""
+from __future__ import annotations
+
+from ...errors import DiagnosisError
+from .base import Applied, Contribution, Effect, Evidence, ParamSpec
+from .com_offset import ComOffset
+from .friction import Friction
+from .friction_patch import FrictionPatch
+from .hidden_obstacle import HiddenObstacle
+from .latency import Latency
+from .mass import Mass
+from .none import NoEffect
+from .pusher_offset import PusherOffset
+from .surface_tilt import SurfaceTilt
+
+EFFECTS: dict[str, Effect] = {
+    "none": NoEffect(),
+    "friction": Friction(),
+    "mass": Mass(),
+    "com_offset": ComOffset(),
+    "surface_tilt": SurfaceTilt(),
+    "friction_patch": FrictionPatch(),
+    "latency": Latency(),
+    "pusher_offset": PusherOffset(),
+    "hidden_obstacle": HiddenObstacle(),
+}
+
+__all__ = ["EFFECTS", "Applied", "Contribution", "Effect", "Evidence", "ParamSpec", "get_effect", "register_effect"]
+
+
+def get_effect(name: str) -> Effect:
+    try:
+        return EFFECTS[name]
+    except (KeyError, TypeError):
+        raise DiagnosisError(f"unknown effect {name!r}; effects: {', '.join(EFFECTS)}") from None
+
+
+def register_effect(effect: Effect) -> Effect:
+    """Add (or replace) an effect in the catalog under its `name`."""
+    if not isinstance(effect, Effect) or not effect.name:
+        raise DiagnosisError(f"register_effect needs an Effect instance with a name, got {effect!r}")
+    EFFECTS[effect.name] = effect
+    return effect

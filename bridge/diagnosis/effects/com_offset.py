@@ -1,0 +1,38 @@
+"""`com_offset`: the centre of mass is not where uniform density puts it (an insert, a hollow, a load).
+
+It changes where friction's pressure is centred, so a push turns the object more or less than simulated
+(quasi-static pushing), and a tall object tips at a different push height.
+"""
+from __future__ import annotations
+
+import math
+
+from .base import Contribution, Effect, Evidence, ParamSpec, footprint_half, movable_objects
+from ...sim.scene import ObjectParams
+
+
+class ComOffset(Effect):
+    name = "com_offset"
+    summary = "an object's centre of mass is off its geometric centre"
+    mechanism = "scene values: the body's centre of mass written into the context"
+    signature_text = "yaw residual from the first contact on, its sign set by which side of the centre is pushed"
+
+    def targets(self, world, odb, observed):
+        return tuple(n for n in observed if n in movable_objects(world, odb))
+
+    def params(self, world, odb, target):
+        hx, hy, _ = footprint_half(world, odb, target)
+        return (ParamSpec("dx", -0.6 * hx, 0.6 * hx, 0.0, 0.1 * hx, "m", "object frame"),
+                ParamSpec("dy", -0.6 * hy, 0.6 * hy, 0.0, 0.1 * hy, "m", "object frame"))
+
+    def contribute(self, world, odb, target, values):
+        com = odb.mass_properties(world.objects[target].type).com
+        return Contribution(objects=((target, ObjectParams(
+            com=(float(com[0] + values["dx"]), float(com[1] + values["dy"]), float(com[2])))),))
+
+    def describe(self, world, odb, target, values):
+        return {"offset_mm": 1e3 * math.hypot(values["dx"], values["dy"])}
+
+    def signature(self, evidence: Evidence, target: str) -> float:
+        early = 1.0 - min(1.0, max(0.0, evidence.mean("onset_rel", 0.0)))
+        return 0.2 + 0.6 * evidence.mean("yaw") * early + 0.1 * early

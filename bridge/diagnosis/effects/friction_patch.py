@@ -1,0 +1,80 @@
+"""`friction_patch`: a region of the support surface has a different friction coefficient (a worn, wet,
+taped or different-material area).
+
+Modelled without new geometry: an axis-aligned square (centre cx, cy, half size `half`) where the object-surface
+pair slides with coefficient `mu`; the surface's coefficient in the context is rewritten as the object's
+footprint enters the square, blended with the footprint fraction inside (`bridge.sim.hooks.FrictionRegion`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of, supported_by
+from ...odb.geometry import half_extents
+from ...sim.hooks import FrictionRegion, combined_friction
+
+
+class FrictionPatch(Effect):
+    name = "friction_patch"
+    summary = "part of the support surface has a different friction coefficient"
+    mechanism = "context hook: the surface's coefficient rewritten while an object is over the region"
+    signature_text = ("onset in the middle of a push, when the object reaches the same place in several "
+                      "recordings; the object keeps moving (no stall), it turns or slides on differently")
+    smooth = False
+
+    def targets(self, world, odb, observed):
+        surfaces = [support_of(world, odb, n) for n in observed if n in movable_objects(world, odb)]
+        return tuple(dict.fromkeys(s for s in surfaces if s))
+
+    def _pair(self, world, odb, target) -> float:
+        objects = supported_by(world, odb, target)
+        mu_s = odb.get(world.objects[target].type).physics.friction
+        mu_o = odb.get(world.objects[objects[0]].type).physics.friction if objects else mu_s
+        return combined_friction(mu_o, mu_s)
+
+    def params(self, world, odb, target):
+        surface = world.objects[target]
+        hx, hy, _ = half_extents(odb.get(surface.type).geometry)
+        cx, cy = surface.pose.xyz[:2]
+        pair = self._pair(world, odb, target)
+        return (ParamSpec("cx", cx - hx, cx + hx, cx, 0.01, "m", "region centre, world x"),
+                ParamSpec("cy", cy - hy, cy + hy, cy, 0.01, "m", "region centre, world y"),
+                ParamSpec("half", 0.005, max(hx, hy), 0.05, 0.01, "m", "half size of the square region"),
+                ParamSpec("mu", 0.02, 1.9 * pair, pair, 0.3 * pair, "", "object-surface coefficient inside"))
+
+    def contribute(self, world, odb, target, values):
+        objects = supported_by(world, odb, target)
+        if not objects:
+            return Contribution()
+        region = FrictionRegion(target, objects, (values["cx"], values["cy"]), (values["half"], values["half"]),
+                                values["mu"])
+        return Contribution(hooks=(region,))
+
+    def signature(self, evidence: Evidence, target: str) -> float:
+        late = [f for f in evidence.significant() if f.get("onset_rel") is not None and f["onset_rel"] > 0.15]
+        if not late:
+            return 0.1
+        stall = evidence.mean("stall", 0.0)
+        return min(1.0, 0.3 + 0.5 * len(late) / max(1, len(evidence.significant())) + 0.2 * (1.0 - stall))
+
+    def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
+        specs = {p.name: p for p in self.params(evidence.world, evidence.odb, target)}
+        pair = specs["mu"].null
+        entries = []
+        for f in evidence.significant():
+            if f.get("onset_rel") is None or f["onset_rel"] <= 0.1 or f.get("onset_xy_sim") is None:
+                continue
+            d = np.asarray(f["direction"])
+            entries.append(np.asarray(f["onset_xy_sim"]) + d * f.get("reach", 0.05))
+        if not entries:
+            return [{**{n: s.null for n, s in specs.items()}}]
+        centre = np.median(np.array(entries), axis=0)
+        half = 0.06
+        d = np.mean([np.asarray(f["direction"]) for f in evidence.significant()], axis=0)
+        d = d / (np.linalg.norm(d) or 1.0)
+        c = centre + d * half  # the region starts where the leading edge was at the onset
+        out = []
+        for mu in (0.5 * pair, 1.6 * pair):
+            out.append({"cx": float(c[0]), "cy": float(c[1]), "half": half,
+                        "mu": float(np.clip(mu, specs["mu"].lower, specs["mu"].upper))})
+        return out

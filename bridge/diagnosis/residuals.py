@@ -1,0 +1,103 @@
+"""Observed tracks as arrays, their measurement noise estimated from the data, and the residual between a
+simulated and an observed track.
+
+Residual components (world frame): position dx, dy, dz (m) and rotation rx, ry, rz (rad, the rotation vector of
+R_obs R_sim^T: rz is the yaw difference, rx and ry the tilt). A component the observations do not really measure
+(constant to the last digit, e.g. z and tilt of a planar motion-capture track) is left out of every score.
+
+Noise: the standard deviation of white measurement noise shows in the second differences of a densely sampled
+track, where smooth motion contributes almost nothing: sigma = 1.4826 MAD(d2) / sqrt(6). It is estimated per
+component from the full-rate track, so it is a property of the data, not an assumption.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..errors import DiagnosisError
+from ..recording.observations import ObservedTrack
+
+COMPONENTS = ("dx", "dy", "dz", "rx", "ry", "rz")
+MIN_SIGMA = (2e-6, 2e-6, 2e-6, 2e-5, 2e-5, 2e-5)  # numerical floor (m, rad): far below any real sensor
+SPARSE_SIGMA = (1e-3, 1e-3, 1e-3, 0.01, 0.01, 0.01)  # used only when a track is too short to estimate noise
+
+
+@dataclass(frozen=True, eq=False)
+class ObservedSeries:
+    """One object's observed poses at the residual times, with the noise estimated from its full track."""
+
+    object: str
+    times: np.ndarray  # (n,)
+    xyz: np.ndarray  # (n, 3)
+    R: np.ndarray  # (n, 3, 3)
+    sigma: np.ndarray  # (6,) noise per component
+    measured: np.ndarray  # (6,) bool: the component carries information
+    estimated: bool  # False when the track was too short and SPARSE_SIGMA stands in
+
+    @property
+    def weights(self) -> np.ndarray:
+        """1 / sigma for measured components, 0 for the others."""
+        return np.where(self.measured, 1.0 / self.sigma, 0.0)
+
+
+def rotvecs_relative(R: np.ndarray) -> np.ndarray:
+    """World-frame rotation vectors of each R relative to the first (n, 3)."""
+    return Rotation.from_matrix(R @ R[0].T).as_rotvec()
+
+
+def estimate_noise(times: np.ndarray, xyz: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(sigma (6,), measured (6,), estimated) from a full-rate track."""
+    series = np.column_stack([xyz, rotvecs_relative(R)]) if len(times) else np.zeros((0, 6))
+    measured = np.array([len(series) > 1 and float(np.ptp(series[:, k])) > 1e-12 for k in range(6)])
+    if len(times) < 8:
+        return np.array(SPARSE_SIGMA), measured, False
+    d2 = series[2:] - 2 * series[1:-1] + series[:-2]
+    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
+    sigma = np.maximum(1.4826 * mad / math.sqrt(6.0), MIN_SIGMA)
+    return sigma, measured, True
+
+
+def observed_series(track: ObservedTrack, rate: float) -> ObservedSeries:
+    """The track thinned to at most `rate` Hz (first and last pose kept), noise from the full track."""
+    if rate <= 0:
+        raise DiagnosisError(f"residual rate must be > 0 Hz, got {rate!r}")
+    times = np.asarray(track.times, dtype=float)
+    xyz = np.array([p.xyz for p in track.poses])
+    R = np.array([p.rotation() for p in track.poses])
+    sigma, measured, estimated = estimate_noise(times, xyz, R)
+    keep, last = [], -math.inf
+    for i, t in enumerate(times):
+        if t - last >= 1.0 / rate - 1e-9 or i == len(times) - 1:
+            keep.append(i)
+            last = t
+    keep = np.array(keep)
+    return ObservedSeries(track.object, times[keep], xyz[keep], R[keep], sigma, measured, estimated)
+
+
+def sample_track(sim_times: np.ndarray, track: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Simulated positions (n, 3) and rotation matrices (n, 3, 3) at `times`, interpolated from a (T, 7) track."""
+    t = np.clip(times, sim_times[0], sim_times[-1])
+    xyz = np.column_stack([np.interp(t, sim_times, track[:, k]) for k in range(3)])
+    quats = track[:, 3:7].copy()
+    for k in range(1, len(quats)):  # one hemisphere, so the linear blend below is the short way
+        if quats[k] @ quats[k - 1] < 0:
+            quats[k] = -quats[k]
+    q = np.column_stack([np.interp(t, sim_times, quats[:, k]) for k in range(4)])
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    R = Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix()
+    return xyz, R
+
+
+def residual(obs: ObservedSeries, sim_xyz: np.ndarray, sim_R: np.ndarray) -> np.ndarray:
+    """(n, 6): observed minus simulated position, and the rotation vector of R_obs R_sim^T (world frame)."""
+    dp = obs.xyz - sim_xyz
+    dr = Rotation.from_matrix(obs.R @ np.swapaxes(sim_R, 1, 2)).as_rotvec()
+    return np.column_stack([dp, dr])
+
+
+def normalised(obs: ObservedSeries, res: np.ndarray) -> np.ndarray:
+    """Residual divided by the noise, measured components only, flattened: what scores and fits use."""
+    return (res[:, obs.measured] / obs.sigma[obs.measured]).ravel()

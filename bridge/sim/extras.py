@@ -1,0 +1,112 @@
+"""Scene extras: geometry and bodies that are not in the world model, added by `build_scene(..., extras=...)`.
+
+Each extra is a frozen (hashable, picklable) value with ``add_to(plant, world, odb, config)``, called before
+Finalize, so a scene built with the same extras can be cached and reused. Diagnosis uses them twice: to *model*
+an effect (a welded obstacle post) and, in the proof, to *conceal* one by a physical mechanism that differs from
+the model (a dense slug welded inside an object, a surface made of tiles with a different-friction region).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import AddCompliantHydroelasticProperties, AddContactMaterial, Box, Cylinder, ProximityProperties
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.plant import CoulombFriction
+from pydrake.multibody.tree import SpatialInertia
+
+from ..errors import SceneError
+
+
+def _props(friction: float, modulus: float | None, resolution: float, dissipation: float = 3.0) -> ProximityProperties:
+    props = ProximityProperties()
+    AddContactMaterial(dissipation=dissipation, friction=CoulombFriction(friction, friction), properties=props)
+    if modulus is not None:
+        AddCompliantHydroelasticProperties(resolution, modulus, props)
+    return props
+
+
+@dataclass(frozen=True)
+class WeldedShape:
+    """A box (size x, y, z) or an upright cylinder (radius, length) welded to the world at `xyz` / `rpy`."""
+
+    name: str
+    shape: str
+    size: tuple[float, ...]
+    xyz: tuple[float, float, float]
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    friction: float = 0.5
+    modulus: float | None = 1.0e7
+    color: tuple[float, float, float, float] = (0.8, 0.3, 0.2, 1.0)
+
+    def add_to(self, plant, world, odb, config) -> None:
+        if self.shape == "box" and len(self.size) == 3:
+            shape = Box(*self.size)
+        elif self.shape == "cylinder" and len(self.size) == 2:
+            shape = Cylinder(*self.size)
+        else:
+            raise SceneError(f"extra {self.name!r}: shape must be 'box' (3 sizes) or 'cylinder' (radius, length), "
+                             f"got {self.shape!r} with {len(self.size)} sizes")
+        X = RigidTransform(RollPitchYaw(*self.rpy), np.asarray(self.xyz, dtype=float))
+        resolution = max(0.002, min(config.resolution_hint, 0.5 * min(self.size)))
+        plant.RegisterCollisionGeometry(plant.world_body(), X, shape, f"{self.name}/collision",
+                                        _props(self.friction, self.modulus, resolution))
+        plant.RegisterVisualGeometry(plant.world_body(), X, shape, f"{self.name}/visual", np.array(self.color))
+
+
+@dataclass(frozen=True)
+class Slug:
+    """A dense block welded inside a free object (no collision geometry): it adds `mass` at `offset` (object
+    frame, m), which moves the centre of mass and changes the inertia the way a real insert does."""
+
+    object: str
+    mass: float
+    offset: tuple[float, float, float]
+    edge: float = 0.01  # m, cube edge of the slug (its own inertia)
+
+    def add_to(self, plant, world, odb, config) -> None:
+        if not plant.HasBodyNamed(self.object):
+            raise SceneError(f"slug: no free object {self.object!r} in the scene")
+        if not self.mass > 0:
+            raise SceneError(f"slug in {self.object!r}: mass must be > 0, got {self.mass!r}")
+        body = plant.GetBodyByName(self.object)
+        slug = plant.AddRigidBody(f"{self.object}__slug", body.model_instance(),
+                                  SpatialInertia.SolidCubeWithMass(self.mass, self.edge))
+        plant.WeldFrames(body.body_frame(), slug.body_frame(), RigidTransform(np.asarray(self.offset, dtype=float)))
+
+
+@dataclass(frozen=True)
+class SurfaceTiles:
+    """A support slab built from five welded boxes: a rectangular region `region` = (x0, x1, y0, y1) with its own
+    friction and four tiles around it, all with their tops at the same height. It stands in for a fixture that
+    has been moved out of the way, so the surface has a second material region (the proof's friction patch)."""
+
+    name: str
+    centre: tuple[float, float, float]  # slab centre (world)
+    size: tuple[float, float, float]  # slab size
+    region: tuple[float, float, float, float]
+    friction: float
+    region_friction: float
+    modulus: float = 1.0e7
+
+    def tiles(self) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float], float]]:
+        """(name, centre, size, friction) of each tile, empty tiles left out."""
+        cx, cy, cz = self.centre
+        sx, sy, sz = self.size
+        X0, X1, Y0, Y1 = cx - sx / 2, cx + sx / 2, cy - sy / 2, cy + sy / 2
+        x0, x1, y0, y1 = (float(np.clip(self.region[0], X0, X1)), float(np.clip(self.region[1], X0, X1)),
+                          float(np.clip(self.region[2], Y0, Y1)), float(np.clip(self.region[3], Y0, Y1)))
+        boxes = [("patch", (x0, x1, y0, y1), self.region_friction), ("west", (X0, x0, Y0, Y1), self.friction),
+                 ("east", (x1, X1, Y0, Y1), self.friction), ("south", (x0, x1, Y0, y0), self.friction),
+                 ("north", (x0, x1, y1, Y1), self.friction)]
+        out = []
+        for label, (a, b, c, d), mu in boxes:
+            if b - a > 1e-6 and d - c > 1e-6:
+                out.append((f"{self.name}_{label}", ((a + b) / 2, (c + d) / 2, cz), (b - a, d - c, sz), mu))
+        return out
+
+    def add_to(self, plant, world, odb, config) -> None:
+        for name, xyz, size, mu in self.tiles():
+            color = (0.75, 0.85, 0.75, 1.0) if name.endswith("_patch") else (0.9, 0.9, 0.9, 1.0)
+            WeldedShape(name, "box", size, xyz, friction=mu, modulus=self.modulus, color=color).add_to(
+                plant, world, odb, config)
