@@ -240,8 +240,28 @@ def _fit_progress(p) -> None:
           file=sys.stderr, flush=True)
 
 
+def cmd_diagnose(args) -> int:
+    from .diagnosis.pipeline import diagnose_paths, summary_text
+
+    run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
+                         effects=args.effects.split(",") if args.effects else None, max_duration=args.max_duration)
+    print(summary_text(run))
+    print(f"wrote {', '.join(str(f) for f in run.files.values())}")
+    return 0
+
+
+def cmd_prove(args) -> int:
+    from .diagnosis.prove import run_proof
+
+    proof = run_proof(args.out, _odb(args), size=args.size, workers=args.workers,
+                      log=lambda m: print(m, file=sys.stderr, flush=True))
+    print(proof.text())
+    print(f"wrote {Path(args.out) / 'proof.json'} and {Path(args.out) / 'proof.md'}")
+    return 0
+
+
 def cmd_act(args) -> int:
-    from .sim.bodies import make_recording
+    from .enactment import make_recording
 
     odb = _odb(args)
     recording = make_recording(Path(args.world), args.action, list(args.args), Path(args.out), odb, _templates(args, odb))
@@ -255,6 +275,8 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "view": (cmd_view, "write a self-contained HTML replay of a recording (observed poses as ghosts)"),
     "act": (cmd_act, "make a recording from an action template's body"),
     "fit": (cmd_fit, "fit simulation parameters (friction, mass, ...) to recordings with observed poses"),
+    "diagnose": (cmd_diagnose, "locate where simulation and recordings differ, name the missing physics, model it"),
+    "prove": (cmd_prove, "conceal each effect in generated recordings and diagnose them blind (confusion matrix)"),
     "check": (cmd_check, "validate the object database and the action templates"),
     "export": (cmd_export, "write the PDDL domain and problem of a world state"),
     "diff": (cmd_diff, "compare two world states (or a world state and a PDDL problem)"),
@@ -336,6 +358,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.json")
     p.add_argument("--max-duration", type=float, default=None, metavar="S", help="use only the first S seconds of "
                    "each MIT push")
+    p = add("diagnose")
+    p.add_argument("recordings", nargs="+", metavar="RECORDING",
+                   help="recording folders (with observed.csv), MIT .h5 files, or folders of .h5 files")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for diagnosis.json, report.md, scene.yaml, plots")
+    p.add_argument("--hold-out", type=int, default=None, metavar="N", help="recordings kept out of the fit to check "
+                   "it (default: a quarter when there are 4 or more)")
+    p.add_argument("--effects", default=None, metavar="A,B", help="only these effects of the catalog (default: all)")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: up to 2)")
+    p.add_argument("--max-duration", type=float, default=None, metavar="S", help="use only the first S seconds of "
+                   "each MIT push")
+    p = add("prove")
+    p.add_argument("--size", choices=("small", "full"), default="small", help="small: one case per effect (CI); "
+                   "full: three magnitudes, two seeds (default: %(default)s)")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for the generated recordings and proof.json")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: up to 2)")
     return parser
 
 

@@ -123,13 +123,14 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSpec, *, odb: ObjectD
                    seed: int = 0, generations: int = 30, popsize: int | None = None, sigma0: float = 0.25,
                    executor: FitExecutor | None = None, hold_out: int | None = None,
                    checkpoint: str | Path | None = None, resume: bool = False, patience: int = 8, tol: float = 1e-6,
-                   c: float = DEFAULT_C, config: SimConfig = SimConfig(),
+                   target_error: float | None = None, c: float = DEFAULT_C, config: SimConfig = SimConfig(),
                    progress: Callable[[Progress], None] | None = None) -> FitResult:
     """Fit the free parameters of `spec` to `trials` (see the module docstring).
 
     `checkpoint` is a folder: after every generation DIR/checkpoint.json holds the optimiser and the bookkeeping;
     `resume` continues from it (it must be the same fit: trials, parameters, optimiser, seed). Early stop: no
-    improvement of the best error by more than `tol` (m) for `patience` generations.
+    improvement of the best error by more than `tol` (m) for `patience` generations, or the best error at or
+    below `target_error`.
     """
     started = wallclock.perf_counter()
     check_trials(trials)
@@ -153,7 +154,7 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSpec, *, odb: ObjectD
             if resume and path is not None and not path.is_file():
                 raise FitError("no checkpoint to resume from", source=str(path))
             opt = make_optimizer(optimizer, spec.to_unit(spec.start_values()), sigma0, seed,
-                                 **_optimizer_options(optimizer, popsize, len(spec.free), generations, patience, tol))
+                                 **_optimizer_options(optimizer, popsize, generations, patience, tol, target_error))
             start_rows = executor.evaluate(fit_set + held_set, spec, [spec.start_values()], c=c, config=config)[0]
             state = _RunState(opt, tuple(start_rows), simulations=len(start_rows))
         opt = state.optimizer
@@ -196,9 +197,10 @@ def _merge(rows: Sequence[TrialError]) -> PoseError:
     return PoseError.merge(r.error for r in rows)
 
 
-def _optimizer_options(name: str, popsize: int | None, dim: int, generations: int, patience: int,
-                       tol: float) -> dict[str, Any]:
-    options: dict[str, Any] = {"max_generations": int(generations), "patience": int(patience), "tol": float(tol)}
+def _optimizer_options(name: str, popsize: int | None, generations: int, patience: int, tol: float,
+                       target_error: float | None) -> dict[str, Any]:
+    options: dict[str, Any] = {"max_generations": int(generations), "patience": int(patience), "tol": float(tol),
+                               "target_error": target_error}
     if popsize is not None:
         if not isinstance(popsize, (int, np.integer)) or popsize < 2:
             raise FitError(f"popsize must be a whole number >= 2, got {popsize!r}")
@@ -272,8 +274,8 @@ class _RunState:
             raise FitError(f"the checkpoint is of a different fit ({', '.join(differ)} differ); remove it or run "
                            "without --resume", source=str(path))
         try:
-            rows = tuple(TrialError(r["trial"], PoseError(**r["error"]), r["failure"], r["wall_time"])
-                         for r in data["start_rows"])
+            rows = tuple(TrialError(r["trial"], PoseError(**r["error"]), r["failure"], r["wall_time"],
+                                    r.get("cpu_time", 0.0)) for r in data["start_rows"])
             errors = [GenerationErrors.from_dict(g) for g in data["generation_errors"]]
             return cls(restore_optimizer(data["optimizer"]), rows, int(data["simulations"]), int(data["failures"]),
                        errors)

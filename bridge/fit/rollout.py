@@ -41,7 +41,8 @@ class TrialError:
     trial: str
     error: PoseError
     failure: str | None = None
-    wall_time: float = 0.0
+    wall_time: float = 0.0  # s, in the process that simulated it
+    cpu_time: float = 0.0  # s of CPU that process spent on it (wall_time minus waiting for a busy machine)
 
     @property
     def failed(self) -> bool:
@@ -60,14 +61,16 @@ def evaluate(trials: Sequence[Trial], spec: ParameterSpec, x: Sequence[float] | 
 
 def evaluate_trial(trial: Trial, spec: ParameterSpec, x: Sequence[float] | None, *, odb: ObjectDatabase,
                    c: float = DEFAULT_C, config: SimConfig = SimConfig()) -> TrialError:
-    started = wallclock.perf_counter()
+    started, cpu = wallclock.perf_counter(), wallclock.process_time()
     try:
         result = simulate_trial(trial, spec, x, odb=odb, config=config)
     except SimulationFailure as exc:
         count = sum(len(_compared_times(trial, track)) for track in trial.observations if track.object in trial.world.objects)
         failed = PoseError(FAILURE_ERROR, 0.0, FAILURE_ERROR, max(count, 1))
-        return TrialError(trial.name, failed, str(exc), wallclock.perf_counter() - started)
-    return TrialError(trial.name, compare(trial, result, c), None, wallclock.perf_counter() - started)
+        return TrialError(trial.name, failed, str(exc), wallclock.perf_counter() - started,
+                          wallclock.process_time() - cpu)
+    error = compare(trial, result, c)
+    return TrialError(trial.name, error, None, wallclock.perf_counter() - started, wallclock.process_time() - cpu)
 
 
 def simulate_trial(trial: Trial, spec: ParameterSpec | None, x: Sequence[float] | None, *, odb: ObjectDatabase,

@@ -71,7 +71,7 @@ class Slug:
             raise SceneError(f"slug in {self.object!r}: mass must be > 0, got {self.mass!r}")
         body = plant.GetBodyByName(self.object)
         slug = plant.AddRigidBody(f"{self.object}__slug", body.model_instance(),
-                                  SpatialInertia.SolidCubeWithMass(self.mass, self.edge))
+                                  SpatialInertia.SolidBoxWithMass(self.mass, self.edge, self.edge, self.edge))
         plant.WeldFrames(body.body_frame(), slug.body_frame(), RigidTransform(np.asarray(self.offset, dtype=float)))
 
 

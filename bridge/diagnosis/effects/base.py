@@ -8,7 +8,9 @@ hooks (`signature`, `seeds`, `describe`). `contribute` says how the effect enter
   forces), no rebuild;
 - a telemetry transform (`time_shift`, `joint_offsets`);
 - scene extras (geometry added before Finalize, e.g. a welded post) - a new scene per distinct extra;
-- context hooks run between samples (e.g. a friction region).
+- context hooks run between samples (e.g. a friction region);
+- pose overrides for the world before the replay (a tilted support fixture and what stands on it) - a new
+  scene when a fixture moves.
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ from ...errors import DiagnosisError
 from ...odb import ObjectDatabase
 from ...odb.geometry import contains_xy, half_extents, z_range
 from ...sim.scene import ObjectParams, SceneParams
+from ...values import Pose
 from ...world import WorldState
 
 
@@ -71,6 +74,7 @@ class Contribution:
     joint_offsets: tuple[tuple[str, float], ...] = ()
     extras: tuple = ()
     hooks: tuple = ()
+    poses: tuple[tuple[str, Pose], ...] = ()
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,279 @@
+"""Benchmark the parameter fit (issue: estimate simulation parameters, the paper's Section V), three parts in one run:
+
+1. Optimisers. On the synthetic recovery problem (4 parameters like the paper's: two frictions, the small box's
+   mass and the big box's centre of mass; `bridge.fit.synthetic`), the paper's ES (lambda = 10 D = 40, mu = 10,
+   rho = 2) runs 30 generations; its best error is the target. Reported: how many simulations the ES and
+   CMA-ES (cma's default population) need to reach that target, from the same wrong start and seed.
+2. Workers. The wall time of one fixed fit with a process pool of 1 and of 2 workers (pools started and warmed
+   up first, so the time is the fit's). Target: 2 workers >= 1.8x faster.
+3. Real data. MIT planar pushing (Yu, Bauza, Fazeli, Rodriguez, IROS 2016): fit the surface's and the pusher
+   rod's friction on most trials, report the held-out error before (nominal values) and after.
+
+    python benchmarks/fit_benchmark.py            # the full run, < 20 minutes on 2 cores
+    python benchmarks/fit_benchmark.py --quick    # < 3 minutes
+
+Prints a table and writes benchmarks/results/fit.json (or --json PATH) so two revisions can be compared.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from bridge.fit.executors import make_executor  # noqa: E402
+from bridge.fit.fit import FitResult, fit_parameters  # noqa: E402
+from bridge.fit.params import parse_params  # noqa: E402
+from bridge.fit.synthetic import TRUE_VALUES, push_trials, recovery, recovery_spec  # noqa: E402
+from bridge.odb import load_object_database  # noqa: E402
+
+SPEEDUP_TARGET = 1.8
+ROD_FRICTION, BLOCK_FRICTION = 0.25, 0.25  # models/pusher2d/pusher2d.sdf and odb/types/mit_push.yaml
+
+FULL = dict(es_generations=30, es_lam=40,  # mu = lam / 4 = 10, as in the paper
+            cmaes_generations=120, speed_generations=10, speed_popsize=8, speed_repeats=2,
+            mit_trials=None, mit_duration=1.2, mit_generations=8, mit_popsize=6)
+QUICK = dict(es_generations=8, es_lam=20, cmaes_generations=30, speed_generations=4, speed_popsize=8,
+             speed_repeats=1,
+             mit_trials=8, mit_duration=0.6, mit_generations=3, mit_popsize=4)
+
+MIT_PARAMS = {"params": [
+    {"kind": "friction", "target": "surface", "bounds": [0.05, 1.5], "start": 0.25},
+    {"kind": "friction", "target": "pusher/pusher_rod", "bounds": [0.02, 1.5], "start": ROD_FRICTION},
+]}
+
+
+def simulations_to_reach(result: FitResult, target: float, n_trials: int) -> int | None:
+    """Simulations spent when the best error first reached `target` (whole generations), or None."""
+    for record in result.history:
+        if record.best_error <= target * (1 + 1e-12):
+            return record.evaluations * n_trials
+    return None
+
+
+def part_optimizers(odb, executor, cfg: dict, seed: int) -> dict:
+    trials = push_trials(odb)
+    spec = recovery_spec()
+    started = time.perf_counter()
+    es = fit_parameters(trials, spec, odb=odb, executor=executor, optimizer="es", seed=seed,
+                        generations=cfg["es_generations"], popsize=cfg["es_lam"], hold_out=0,
+                        patience=cfg["es_generations"], tol=0.0)
+    es_time = time.perf_counter() - started
+    target = es.history[-1].best_error
+    started = time.perf_counter()
+    cma = fit_parameters(trials, spec, odb=odb, executor=executor, optimizer="cmaes", seed=seed,
+                         generations=cfg["cmaes_generations"], hold_out=0, patience=cfg["cmaes_generations"],
+                         tol=0.0, target_error=target)
+    cma_time = time.perf_counter() - started
+    rows = {}
+    for name, result, seconds in (("es", es, es_time), ("cmaes", cma, cma_time)):
+        rows[name] = {
+            "simulations_to_target": simulations_to_reach(result, target, len(trials)),
+            "generations_run": result.generations, "popsize": result.history[0].evaluations,
+            "best_e": result.history[-1].best_error,
+            "values": dict(result.values), "recovery_error": recovery(dict(result.values)).errors,
+            "wall_s": round(seconds, 1), "stop": result.stop_reason}
+    return {"target_e": target, "true_values": TRUE_VALUES, "start": dict(es.start), "trials": len(trials),
+            "es_generations": cfg["es_generations"], **rows}
+
+
+def _burn(n: int) -> float:
+    started = time.perf_counter()
+    total = 0
+    for i in range(n):
+        total += i * i
+    return time.perf_counter() - started
+
+
+def parallel_capacity(n: int = 5_000_000) -> float:
+    """How much faster two processes do two equal pure-Python jobs than one process does one of them, twice:
+    about 2 on two idle cores, about 1 when another program keeps one core busy."""
+    import multiprocessing
+
+    one = min(_burn(n) for _ in range(2))
+    with multiprocessing.get_context("spawn").Pool(2) as pool:
+        pool.map(_burn, [1000, 1000])
+        started = time.perf_counter()
+        pool.map(_burn, [n, n])
+        two = time.perf_counter() - started
+    return 2 * one / two
+
+
+class _Recording:
+    """Passes a fit's batches to an executor and keeps every task's result (with its CPU time) per batch."""
+
+    def __init__(self, executor):
+        self.executor, self.kind, self.workers, self.batches = executor, executor.kind, executor.workers, []
+
+    def evaluate(self, trials, spec, xs, **kwargs):
+        rows = self.executor.evaluate(trials, spec, xs, **kwargs)
+        self.batches.append([r.cpu_time for row in rows for r in row])
+        return rows
+
+
+def scheduled_time(batches: list[list[float]], workers: int) -> float:
+    """Makespan of each batch when its tasks go, in order, to whichever of `workers` is free first (how the pool
+    hands them out), summed: the parallel part of a fit on idle cores."""
+    total = 0.0
+    for batch in batches:
+        free = [0.0] * workers
+        for cost in batch:
+            k = free.index(min(free))
+            free[k] += cost
+        total += max(free)
+    return total
+
+
+def part_workers(odb, cfg: dict, seed: int) -> dict:
+    trials = push_trials(odb)
+    spec = recovery_spec()
+    runs = []
+    for repeat in range(cfg["speed_repeats"]):
+        for workers in (1, 2):
+            with make_executor("process", odb, workers=workers) as executor:
+                executor.evaluate(trials, spec, [None] * (2 * workers))  # warm up: import Drake, build the diagrams
+                capacity, load = parallel_capacity(), os.getloadavg()[0]
+                recorder = _Recording(executor)
+                started = time.perf_counter()
+                result = fit_parameters(trials, spec, odb=odb, executor=recorder, optimizer="cmaes", seed=seed,
+                                        generations=cfg["speed_generations"], popsize=cfg["speed_popsize"],
+                                        hold_out=0, patience=cfg["speed_generations"], tol=0.0)
+                runs.append({"workers": workers, "wall_s": round(time.perf_counter() - started, 3),
+                             "cpu_s": round(sum(map(sum, recorder.batches)), 3), "capacity": round(capacity, 2),
+                             "load_average": round(load, 2), "batches": recorder.batches})
+    best = {w: min(r["wall_s"] for r in runs if r["workers"] == w) for w in (1, 2)}
+    one = [r for r in runs if r["workers"] == 1]
+    batches = one[0]["batches"]
+    cpu_per_sim = {w: sum(r["cpu_s"] for r in runs if r["workers"] == w) / sum(
+        len(b) for r in runs if r["workers"] == w for b in r["batches"]) for w in (1, 2)}
+    estimate = scheduled_time(batches, 1) / scheduled_time(batches, 2)
+    driver_share = 1 - one[0]["cpu_s"] / one[0]["wall_s"]
+    for r in runs:
+        del r["batches"]
+    return {"simulations": result.simulations, "runs": runs, "wall_s_1_worker": best[1], "wall_s_2_workers": best[2],
+            "speedup": round(best[1] / best[2], 3), "cpu_s_per_simulation": {str(w): round(v, 4)
+                                                                           for w, v in cpu_per_sim.items()},
+            "estimated_idle_speedup": round(estimate, 3), "driver_share_1_worker": round(driver_share, 3),
+            "target_speedup": SPEEDUP_TARGET, "cpus": os.cpu_count(),
+            "machine_parallel_capacity": min(r["capacity"] for r in runs)}
+
+
+def part_mit(odb, executor, cfg: dict, seed: int) -> dict | None:
+    from bridge.fit.trials import load_trials
+    from bridge.recording.mitpush import find_mit_push_root
+
+    root = find_mit_push_root()
+    if root is None:
+        return None
+    files = sorted((root / "train").glob("*.h5"))
+    if cfg["mit_trials"] is not None:  # the same number of pushes of every shape
+        shapes = sorted({f.name.split("shape=")[1].split("_")[0] for f in files})
+        per_shape = max(1, cfg["mit_trials"] // len(shapes))
+        files = [f for s in shapes for f in [g for g in files if f"shape={s}_" in g.name][:per_shape]]
+    trials = load_trials(files, odb, max_duration=cfg["mit_duration"])
+    spec = parse_params(MIT_PARAMS, "benchmark MIT parameters")
+    started = time.perf_counter()
+    result = fit_parameters(trials, spec, odb=odb, executor=executor, optimizer="cmaes", seed=seed,
+                            generations=cfg["mit_generations"], popsize=cfg["mit_popsize"])
+    combined = {name: 2 * v * BLOCK_FRICTION / (v + BLOCK_FRICTION) for name, v in result.values.items()}
+    per_trial = [{"trial": b.trial, "held_out": b.trial in result.held_out, "before_mm": round(b.error.e * 1e3, 3),
+                  "after_mm": round(a.error.e * 1e3, 3)}
+                 for b, a in zip(result.trial_errors_before, result.trial_errors_after)]
+    return {"trials": len(trials), "fitted": len(result.fit_trials), "held_out": len(result.held_out),
+            "duration_s": cfg["mit_duration"], "values": dict(result.values),
+            "effective_with_block": combined,
+            "fit_before": _e(result.before), "fit_after": _e(result.after),
+            "held_out_before": _e(result.held_out_before), "held_out_after": _e(result.held_out_after),
+            "simulations": result.simulations, "failures": result.failures, "wall_s": round(time.perf_counter() - started, 1),
+            "per_trial": per_trial}
+
+
+def _e(error) -> dict:
+    return {"e_mm": round(error.e * 1e3, 4), "e_t_mm": round(error.e_t * 1e3, 4),
+            "e_R_deg": round(math.degrees(error.e_R), 3)}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smaller budgets, < 3 minutes")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--workers", type=int, default=2, help="workers for parts 1 and 3 (default %(default)s)")
+    parser.add_argument("--json", default=str(REPO / "benchmarks" / "results" / "fit.json"))
+    args = parser.parse_args(argv)
+    cfg = QUICK if args.quick else FULL
+    odb = load_object_database()
+    started = time.perf_counter()
+    with make_executor("process", odb, workers=args.workers) as executor:
+        optimizers = part_optimizers(odb, executor, cfg, args.seed)
+        print_optimizers(optimizers)
+        mit = part_mit(odb, executor, cfg, args.seed)
+    workers = part_workers(odb, cfg, args.seed)
+    print_workers(workers)
+    print_mit(mit)
+    total = time.perf_counter() - started
+    print(f"\ntotal {total:.0f} s ({'quick' if args.quick else 'full'} run)")
+    out = Path(args.json)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"mode": "quick" if args.quick else "full", "seed": args.seed, "config": cfg,
+                               "machine": platform.platform(), "total_s": round(total, 1),
+                               "optimizers": optimizers, "workers": workers, "mit": mit}, indent=1) + "\n")
+    print(f"wrote {out}")
+
+
+def print_optimizers(r: dict) -> None:
+    print(f"\n1. optimisers on the synthetic 4-parameter recovery problem ({r['trials']} trials); target = the ES's "
+          f"best error after {r['es_generations']} generations: e = {r['target_e'] * 1e3:.4f} mm")
+    print(f"   {'optimizer':<10}{'sims to target':>16}{'generations':>13}{'best e (mm)':>13}{'wall (s)':>10}   "
+          "fitted - true")
+    for name in ("es", "cmaes"):
+        row = r[name]
+        sims = row["simulations_to_target"]
+        errors = ", ".join(f"{k.split('[')[0]} {v:+.3f}" for k, v in row["recovery_error"].items())
+        print(f"   {name:<10}{sims if sims is not None else 'not reached':>16}{row['generations_run']:>13}"
+              f"{row['best_e'] * 1e3:>13.4f}{row['wall_s']:>10.1f}   {errors}")
+
+
+def print_workers(r: dict) -> None:
+    ok = "meets" if r["speedup"] >= r["target_speedup"] else "MISSES"
+    print(f"\n2. workers ({r['simulations']} simulations per fit, process pool, {r['cpus']} CPUs): best of "
+          f"{len(r['runs']) // 2}: 1 worker {r['wall_s_1_worker']:.1f} s, 2 workers {r['wall_s_2_workers']:.1f} s, "
+          f"measured speedup {r['speedup']:.2f}x ({ok} the {r['target_speedup']}x target)")
+    for run in r["runs"]:
+        print(f"   run: {run['workers']} worker(s) {run['wall_s']:.1f} s wall, {run['cpu_s']:.1f} s CPU in simulations; "
+              f"machine: 2 processes {run['capacity']:.2f}x as fast as 1, load average {run['load_average']:.1f}")
+    cpu = r["cpu_s_per_simulation"]
+    print(f"   CPU per simulation: {cpu['1'] * 1e3:.0f} ms with 1 worker, {cpu['2'] * 1e3:.0f} ms with 2 (no parallel "
+          f"overhead when equal); on idle cores the pool's schedule of these tasks gives "
+          f"{r['estimated_idle_speedup']:.2f}x (1-worker wall time not spent simulating - driver, IPC, waiting for a busy "
+          f"machine: "
+          f"{100 * r['driver_share_1_worker']:.0f} %)")
+    if r["machine_parallel_capacity"] < 1.8:
+        print("   warning: other programs were using the CPUs during some runs, so the measured speedup understates "
+              "the fit's; run again on an idle machine")
+
+
+def print_mit(r: dict | None) -> None:
+    if r is None:
+        print("\n3. MIT planar pushing: dataset not found (set BRIDGE_MIT_PUSH), skipped")
+        return
+    print(f"\n3. MIT planar pushing (Yu et al., IROS 2016): {r['trials']} pushes ({r['duration_s']} s each), "
+          f"{r['fitted']} fitted, {r['held_out']} held out; {r['simulations']} simulations, {r['failures']} failed, "
+          f"{r['wall_s']:.0f} s")
+    for name, value in r["values"].items():
+        print(f"   {name} = {value:.3f} (with the block's 0.25: effective {r['effective_with_block'][name]:.3f})")
+    print(f"   {'':<12}{'e (mm)':>10}{'e_t (mm)':>10}{'e_R (deg)':>11}")
+    for label, key in (("fitted before", "fit_before"), ("fitted after", "fit_after"),
+                       ("held-out before", "held_out_before"), ("held-out after", "held_out_after")):
+        e = r[key]
+        print(f"   {label:<16}{e['e_mm']:>6.3f}{e['e_t_mm']:>10.3f}{e['e_R_deg']:>11.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,295 @@
+"""Identify the missing physics: fit candidate effects and choose one with a criterion that punishes extra
+parameters, checked on held-out recordings.
+
+Recipe (`identify`):
+1. locate the mismatch with the world model as it is (`locate`); if no recording carries a residual above the
+   noise floor, the verdict is `none` and nothing is fitted;
+2. fit the ordinary parameters first: the friction coefficients of the object carrying most of the residual and
+   of the surface it slides on (the `friction` model);
+3. screen every other effect of the catalog, each together with the friction coefficients, likely ones first
+   (their signature against the localisation): one Gauss-Newton step from the null values for smooth effects,
+   the seeds the localisation suggests for the others (an obstacle where objects stalled, a region where the
+   residual began);
+4. fit the best screened candidates fully with the friction coefficients (Levenberg-Marquardt) and score
+   every model with BIC on the
+   noise-normalised residual (sigma = the noise floor estimated from the data), discounting samples by the
+   residual's correlation time; `none` wins when no model pays for its parameters;
+5. check on held-out recordings: a winner that does not lower the held-out error gives way to the best model that
+   does (or to `none`); report winner, runner-up, margin, parameters and their uncertainty (curvature).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import DiagnosisError
+from ..fit.error import PoseError
+from .effects import EFFECTS, Applied, Evidence, get_effect
+from .effects.base import support_of
+from .effects.pusher_offset import joint_kinds
+from .locate import Localisation, locate
+from .search import Evaluator, FitResult, Part, Space, bic, correlation_time, fit, gauss_newton_step, pose_error_of
+from .simulation import Engine, Model, chi2_of
+
+MAX_FULL_FITS = 3  # candidates fitted fully after screening
+MIN_FULL_FITS = 2  # so a runner-up is fitted too
+NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise floor
+
+
+@dataclass(frozen=True)
+class Options:
+    effects: tuple[str, ...] | None = None  # restrict the catalog (None: all)
+    max_full_fits: int = MAX_FULL_FITS
+    max_iterations: int = 6
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    effect: str
+    target: str
+    prior: float
+    screened_chi2: float = math.inf
+    start: tuple[dict[str, float], ...] = ()
+    note: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Scored:
+    """A fitted model: the effect named, the whole model (ordinary parameters + effect), its evidence."""
+
+    effect: str
+    target: str
+    params: dict[str, float]
+    std: dict[str, float]
+    model: Model
+    k: int
+    chi2: float
+    n: int
+    bic: float = math.nan
+    score: float = math.nan  # (BIC_none - BIC) / 2: log evidence against `none`
+    error: PoseError | None = None
+    held_out_chi2: float | None = None
+    held_out_n: int | None = None
+    held_out_error: PoseError | None = None
+    derived: dict[str, float] = field(default_factory=dict)
+    evaluations: int = 0
+
+    @property
+    def rms(self) -> float:
+        return math.sqrt(self.chi2 / self.n) if self.n else 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        out = {"effect": self.effect, "target": self.target,
+               "params": {k: float(f"{v:.6g}") for k, v in self.params.items()},
+               "std": {k: (float(f"{v:.3g}") if math.isfinite(v) else None) for k, v in self.std.items()},
+               "score": round(self.score, 3), "bic": round(self.bic, 3), "k": self.k,
+               "rms_sigma": round(self.rms, 3),
+               "model": [{"effect": a.effect, "target": a.target, "params": {k: float(f"{v:.6g}") for k, v in a.params}}
+                         for a in self.model]}
+        if self.error is not None:
+            out["error"] = _error_json(self.error)
+        if self.held_out_error is not None:
+            out["held_out_error"] = _error_json(self.held_out_error)
+        if self.derived:
+            out["derived"] = {k: float(f"{v:.4g}") for k, v in self.derived.items()}
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    verdict: str
+    ranked: tuple[Scored, ...]  # best first; `none` included
+    localisation: Localisation
+    train: tuple[str, ...]
+    held_out: tuple[str, ...]
+    tau: float
+    candidates: tuple[Candidate, ...]
+    notes: tuple[str, ...]
+    simulations: int
+    seconds: float
+    held_out_localisation: Localisation | None = None
+
+    @property
+    def winner(self) -> Scored:
+        return next(s for s in self.ranked if s.effect == self.verdict)
+
+    @property
+    def runner_up(self) -> Scored | None:
+        others = [s for s in self.ranked if s.effect != self.verdict]
+        return others[0] if others else None
+
+    @property
+    def margin(self) -> float:
+        r = self.runner_up
+        return self.winner.score - r.score if r is not None else math.inf
+
+    def model(self) -> Model:
+        return self.winner.model
+
+
+def _error_json(e: PoseError) -> dict[str, float]:
+    return {"e_t": float(f"{e.e_t:.5g}"), "e_R": float(f"{e.e_R:.5g}"), "e": float(f"{e.e:.5g}"), "count": e.count}
+
+
+# --- the recipe -----------------------------------------------------------------------------------------------
+def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (), options: Options = Options(),
+             log=None) -> Identification:
+    started = time.perf_counter()
+    sims0 = engine.simulations
+    say = log or (lambda message: None)
+    if not train:
+        raise DiagnosisError("identify needs at least one training recording")
+    ev = Evaluator(engine, train)
+    loc = locate(engine, list(train))
+    held_loc = locate(engine, list(held_out)) if held_out else None
+    world = engine.prepared[train[0]].world
+    odb = engine.odb
+    notes: list[str] = []
+    ev.cache[()] = tuple(loc.runs)
+    none_chi2, n = chi2_of(loc.runs)
+    ranked_objects = [name for name, excess in loc.objects_ranked() if excess > 0] or \
+        [o for o, _ in loc.objects_ranked()]
+    evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
+                        joint_kinds(world, odb))
+    none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
+    say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
+        f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor")
+    if not any(o.significant for o in loc.objects):
+        notes.append("no recording carries a residual above the noise floor: nothing to fit")
+        scored = _score([none], 1.0)
+        scored = _held_out(engine, held_out, scored)
+        return Identification("none", tuple(scored), loc, _names(engine, train), _names(engine, held_out), 1.0, (),
+                              tuple(notes), engine.simulations - sims0, time.perf_counter() - started, held_loc)
+
+    allowed = set(options.effects or EFFECTS) - {"none"}
+    focus = ranked_objects[:1]
+    # 2. the ordinary parameters: friction of the object carrying the residual and of the surface it slides on
+    #    (Drake combines the two per pair: the surface's value changes only that pair, the object's every pair)
+    fr = get_effect("friction")
+    friction_targets = [t for t in (support_of(world, odb, focus[0]), focus[0]) if t]
+    friction_parts = [Part("friction", t, tuple(fr.params(world, odb, t))) for t in friction_targets]
+    base_space = Space(friction_parts)
+    base_fit = fit(ev, base_space, np.zeros(base_space.dim), max_iterations=options.max_iterations)
+    friction_scored = _from_fit("friction", base_fit, world, odb, base_space.dim)
+    say(f"friction: {_fmt({a.target: a.values()['mu'] for a in base_fit.model()})}, rms {friction_scored.rms:.1f}")
+
+    # 3. screen candidates (each together with the friction coefficients), likely ones first
+    candidates = []
+    for name in EFFECTS:
+        if name in ("none", "friction") or name not in allowed:
+            continue
+        effect = get_effect(name)
+        for target in effect.targets(world, odb, focus):
+            candidates.append(Candidate(name, target, float(effect.signature(evidence, target))))
+    candidates.sort(key=lambda c: -c.prior)
+    screened = []
+    nulls = [{s.name: s.null for s in p.specs} for p in friction_parts]
+    for c in candidates:
+        effect = get_effect(c.effect)
+        space = Space(friction_parts + [Part(c.effect, c.target, tuple(effect.params(world, odb, c.target)))])
+        if effect.smooth:
+            x, chi2 = gauss_newton_step(ev, space, np.zeros(space.dim))
+        else:
+            starts = [space.to_x(nulls + [seed]) for seed in effect.seeds(evidence, c.target)]
+            if not starts:
+                screened.append(Candidate(c.effect, c.target, c.prior, math.inf, (), "no seed from the localisation"))
+                continue
+            chis = [ev.chi2(space.model(x)) for x in starts]
+            x, chi2 = starts[int(np.argmin(chis))], float(min(chis))
+        screened.append(Candidate(c.effect, c.target, c.prior, chi2, tuple(space.values(x))))
+        say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}")
+
+    reference = min(none_chi2, base_fit.chi2)
+
+    def rank_key(c: Candidate) -> float:
+        gain = max(0.0, reference - c.screened_chi2) / max(reference, 1e-12)
+        return -(gain * (0.5 + 0.5 * c.prior))
+
+    order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
+    # 4. full fits, each effect together with the friction coefficients, from the screened point
+    fitted: list[Scored] = [none, friction_scored]
+    for i, c in enumerate(order[:max(options.max_full_fits, MIN_FULL_FITS)]):
+        if i >= MIN_FULL_FITS and min(s.rms for s in fitted) < NOISE_RMS:
+            break
+        effect = get_effect(c.effect)
+        space = Space(friction_parts + [Part(c.effect, c.target, tuple(effect.params(world, odb, c.target)))])
+        result = fit(ev, space, space.to_x(list(c.start)), max_iterations=options.max_iterations)
+        scored = _from_fit(c.effect, result, world, odb, space.dim)
+        say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f}")
+        fitted.append(scored)
+    tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
+    scored = _score(fitted, tau)
+    scored = _held_out(engine, held_out, scored)
+    verdict, check = _verdict(scored, bool(held_out))
+    if check:
+        notes.append(check)
+    return Identification(verdict, tuple(scored), loc, _names(engine, train), _names(engine, held_out), tau,
+                          tuple(screened), tuple(notes), engine.simulations - sims0, time.perf_counter() - started,
+                          held_loc)
+
+
+def _names(engine: Engine, indices: Sequence[int]) -> tuple[str, ...]:
+    return tuple(engine.prepared[i].name for i in indices)
+
+
+def _fmt(values: dict[str, float]) -> str:
+    return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
+
+
+def _from_fit(effect: str, result: FitResult, world, odb, k: int) -> Scored:
+    """The Scored model of a fit: the effect is its last part, or for friction the part that moved most (in
+    units of its scale)."""
+    parts, values_all, std_all = result.space.parts, result.values(), result.std()
+    index = len(parts) - 1
+    if effect == "friction":
+        moved = [max(abs(values_all[i][s.name] - s.null) / s.scale for s in p.specs) for i, p in enumerate(parts)]
+        index = int(np.argmax(moved))
+    target, values, std = parts[index].target, values_all[index], std_all[index]
+    derived = get_effect(effect).describe(world, odb, target, values)
+    return Scored(effect, target, values, std, result.model(), k, result.chi2, result.n,
+                  error=pose_error_of(result.runs), derived=derived, evaluations=result.evaluations)
+
+
+def _score(models: Sequence[Scored], tau: float) -> list[Scored]:
+    """BIC on tau-discounted samples; score = log evidence against `none`; best first."""
+    from dataclasses import replace
+
+    out = [replace(m, bic=bic(m.chi2, m.n, m.k, tau)) for m in models]
+    b_none = next((m.bic for m in out if m.effect == "none"), max(m.bic for m in out))
+    out = [replace(m, score=(b_none - m.bic) / 2.0) for m in out]
+    return sorted(out, key=lambda m: -m.score)
+
+
+def _held_out(engine: Engine, held_out: Sequence[int], scored: list[Scored]) -> list[Scored]:
+    if not held_out:
+        return scored
+    from dataclasses import replace
+
+    runs = engine.run_many([s.model for s in scored], list(held_out))
+    out = []
+    for s, r in zip(scored, runs):
+        chi2, n = chi2_of(r)
+        out.append(replace(s, held_out_chi2=chi2, held_out_n=n, held_out_error=pose_error_of(r)))
+    return out
+
+
+def _verdict(scored: list[Scored], checked: bool) -> tuple[str, str | None]:
+    """The best-scoring model, unless it fails the held-out check (held-out chi^2 not below `none`'s)."""
+    best = scored[0]
+    if not checked or best.effect == "none":
+        return best.effect, None
+    none = next(s for s in scored if s.effect == "none")
+    for s in scored:
+        if s.effect == "none" or s.score <= 0:
+            break
+        if s.held_out_chi2 is not None and s.held_out_chi2 < none.held_out_chi2:
+            if s is not best:
+                return s.effect, (f"{best.effect} scored best on the training recordings but raised the held-out "
+                                  f"error; {s.effect} lowers it")
+            return s.effect, None
+    return "none", (f"{best.effect} scored best on the training recordings but did not lower the held-out error; "
+                    "no effect is confirmed")

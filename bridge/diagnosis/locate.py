@@ -1,0 +1,285 @@
+"""Locate the mismatch: per recording and object, where and when the simulated and observed poses part.
+
+For each observed object of each recording (nominal model, i.e. the world model as it is):
+- the residual split into along-push / across-push (push direction: the object's overall displacement, observed
+  and simulated together), z, yaw and tilt;
+- the noise floor, estimated from the data (`residuals.estimate_noise`: second differences of the observed
+  track) and the level of the residual in its quiet part (before anything moves);
+- the onset: the first time the smoothed, noise-normalised residual rises above the floor and stays there;
+- the contact event just before the onset (from the replay's contact log: which bodies started touching);
+- features an effect's signature reads (onset relative to the push, slide-on share, correlation with speed, ...);
+- a ranking of objects and recordings by excess chi^2 (chi^2 minus its expected value under pure noise).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..fit.error import pose_error_arrays
+from ..odb import ObjectDatabase
+from ..odb.geometry import support
+from ..values import Pose
+from .residuals import ObservedSeries, sample_track
+from .simulation import Engine, Prepared, Run
+
+ONSET_SIGMA = 3.0  # smoothed normalised residual above which a deviation starts (and 2.5 x the quiet level)
+ONSET_HOLD = 3  # samples it must stay above
+SMOOTH = 3  # samples in the moving average
+SIGNIFICANT = 2.0  # RMS of the normalised residual above which a (recording, object) carries a mismatch
+QUIET_MOTION = 0.001  # m: before the object has moved this far (observed and simulated) the residual is "quiet"
+
+
+@dataclass(frozen=True, eq=False)
+class LocatedObject:
+    recording: str
+    object: str
+    times: np.ndarray
+    components: dict[str, np.ndarray]  # along, across (m), z (m), yaw, tilt (rad)
+    sigma: dict[str, float]  # noise per component (m, rad), estimated from the observations
+    measured: tuple[str, ...]
+    direction: tuple[float, float]
+    quiet_level: float | None  # RMS of the normalised residual in the quiet part (1 = noise)
+    onset_s: float | None
+    contact: tuple[str, str] | None
+    contact_s: float | None
+    push_s: tuple[float, float] | None  # first and last simulated robot contact with the object
+    chi2: float
+    n: int
+    error: dict[str, float]  # the paper's e_t (m), e_R (rad), e (eq. 1-4)
+    features: dict[str, Any]
+    sim_xy: np.ndarray  # (n, 2) simulated path at the residual times
+    obs_xy: np.ndarray
+
+    @property
+    def rms(self) -> float:
+        """RMS of the noise-normalised residual (1 = at the noise floor)."""
+        return math.sqrt(self.chi2 / self.n) if self.n else 0.0
+
+    @property
+    def excess(self) -> float:
+        return self.chi2 - self.n
+
+    @property
+    def significant(self) -> bool:
+        return bool(self.features.get("significant"))
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "recording": self.recording, "object": self.object,
+            "onset_s": _round(self.onset_s, 3), "contact": list(self.contact) if self.contact else None,
+            "contact_s": _round(self.contact_s, 3),
+            "direction": [round(v, 4) for v in self.direction],
+            "push_s": [round(v, 3) for v in self.push_s] if self.push_s else None,
+            "noise": {k: float(f"{v:.3g}") for k, v in self.sigma.items()},
+            "measured": list(self.measured),
+            "quiet_level": _round(self.quiet_level, 3),
+            "rms_sigma": round(self.rms, 3), "significant": self.significant,
+            "error": {k: float(f"{v:.4g}") for k, v in self.error.items()},
+            "peak": {k: float(f"{float(np.max(np.abs(v))):.4g}") for k, v in self.components.items()},
+            "final": {k: float(f"{float(v[-1]):.4g}") for k, v in self.components.items()},
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Localisation:
+    objects: tuple[LocatedObject, ...]
+    runs: tuple[Run, ...] = field(default=())
+
+    def ranking(self) -> list[LocatedObject]:
+        return sorted(self.objects, key=lambda o: -o.excess)
+
+    def recordings_ranked(self) -> list[tuple[str, float]]:
+        totals: dict[str, float] = {}
+        for o in self.objects:
+            totals[o.recording] = totals.get(o.recording, 0.0) + o.excess
+        return sorted(totals.items(), key=lambda kv: -kv[1])
+
+    def objects_ranked(self) -> list[tuple[str, float]]:
+        totals: dict[str, float] = {}
+        for o in self.objects:
+            totals[o.object] = totals.get(o.object, 0.0) + o.excess
+        return sorted(totals.items(), key=lambda kv: -kv[1])
+
+    def to_json(self) -> list[dict[str, Any]]:
+        return [o.to_json() for o in self.objects]
+
+    def text(self) -> str:
+        lines = ["recording / object                        rms/sigma  onset_s  contact before onset          direction"]
+        for o in self.ranking():
+            contact = " - ".join(o.contact) if o.contact else "-"
+            onset = f"{o.onset_s:7.2f}" if o.onset_s is not None else "      -"
+            lines.append(f"{(o.recording + ' / ' + o.object)[:42]:42s} {o.rms:9.1f} {onset}  {contact[:30]:30s} "
+                         f"({o.direction[0]:+.2f}, {o.direction[1]:+.2f})")
+        lines.append("objects by excess chi^2: " + ", ".join(f"{n} {v:.3g}" for n, v in self.objects_ranked()))
+        lines.append("recordings by excess chi^2: " + ", ".join(f"{n} {v:.3g}" for n, v in self.recordings_ranked()))
+        return "\n".join(lines)
+
+
+def _round(value, digits):
+    return None if value is None else round(float(value), digits)
+
+
+# --- the entry function -----------------------------------------------------------------------------------------
+def locate(engine: Engine, indices: Sequence[int] | None = None, model=()) -> Localisation:
+    """Replay every trial (or `indices`) with `model` (default: nothing added) and locate the mismatch."""
+    indices = list(range(len(engine.prepared))) if indices is None else list(indices)
+    runs = engine.run(tuple(model), indices, tracks=True, contacts=True)
+    located = []
+    for i, run in zip(indices, runs):
+        p = engine.prepared[i]
+        if run.failed is not None:
+            continue
+        for s in p.series:
+            located.append(locate_object(p, s, run, engine.odb))
+    return Localisation(tuple(located), tuple(runs))
+
+
+def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase) -> LocatedObject:
+    r = run.residuals[s.object]
+    sim_xyz, sim_R = sample_track(run.sim_times, run.tracks[s.object], s.times)
+    d = _push_direction(s, sim_xyz)
+    perp = np.array([-d[1], d[0]])
+    comps = {"along": r[:, :2] @ d, "across": r[:, :2] @ perp, "z": r[:, 2], "yaw": r[:, 5],
+             "tilt": np.hypot(r[:, 3], r[:, 4])}
+    sig_xy = float(np.mean(s.sigma[:2]))
+    sigma = {"along": sig_xy, "across": sig_xy, "z": float(s.sigma[2]), "yaw": float(s.sigma[5]),
+             "tilt": float(np.mean(s.sigma[3:5]))}
+    measured = tuple(k for k, m in (("along", s.measured[0] or s.measured[1]), ("across", s.measured[0] or s.measured[1]),
+                                    ("z", s.measured[2]), ("yaw", s.measured[5]),
+                                    ("tilt", s.measured[3] or s.measured[4])) if m)
+    z2 = (r[:, s.measured] / s.sigma[s.measured]) ** 2  # (n, m)
+    chi_t = np.sqrt(np.mean(z2, axis=1)) if z2.size else np.zeros(len(s.times))
+    chi2, n = float(z2.sum()), int(z2.size)
+
+    moved_obs = np.linalg.norm(s.xyz - s.xyz[0], axis=1)
+    moved_sim = np.linalg.norm(sim_xyz - sim_xyz[0], axis=1)
+    quiet = (moved_obs < QUIET_MOTION) & (moved_sim < QUIET_MOTION)
+    quiet_idx = np.nonzero(quiet)[0]
+    quiet_idx = quiet_idx[quiet_idx == np.arange(len(quiet_idx))]  # the leading quiet stretch only
+    quiet_level = float(np.sqrt(np.mean(chi_t[quiet_idx] ** 2))) if len(quiet_idx) >= 3 else None
+    threshold = max(ONSET_SIGMA, 2.5 * (quiet_level or 0.0))
+    onset_i = _onset(chi_t, threshold)
+    onset = float(s.times[onset_i]) if onset_i is not None else None
+
+    robot = p.world.robot.name if p.world.robot else None
+    push = _push_interval(run, s.object, robot)
+    contact, contact_s = _contact_before(run, s.object, onset)
+    error = pose_error_arrays(s.xyz, s.R, sim_xyz, sim_R)
+    features = _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_xyz, sim_R, d, odb)
+    return LocatedObject(p.name, s.object, s.times, comps, sigma, measured, (float(d[0]), float(d[1])), quiet_level,
+                         onset, contact, contact_s, push, chi2, n,
+                         {"e_t": error.e_t, "e_R": error.e_R, "e": error.e}, features, sim_xyz[:, :2], s.xyz[:, :2])
+
+
+def _push_direction(s: ObservedSeries, sim_xyz: np.ndarray) -> np.ndarray:
+    total = (s.xyz[-1, :2] - s.xyz[0, :2]) + (sim_xyz[-1, :2] - sim_xyz[0, :2])
+    norm = float(np.linalg.norm(total))
+    return total / norm if norm > 1e-6 else np.array([1.0, 0.0])
+
+
+def _onset(chi_t: np.ndarray, threshold: float) -> int | None:
+    if len(chi_t) < SMOOTH:
+        return 0 if len(chi_t) and float(np.max(chi_t)) > threshold else None
+    smooth = np.convolve(chi_t, np.ones(SMOOTH) / SMOOTH, mode="same")
+    above = smooth > threshold
+    hold = min(ONSET_HOLD, len(above))
+    for i in range(len(above) - hold + 1):
+        if above[i:i + hold].all():
+            # back up to where the raw residual first crossed half the threshold in this rise
+            j = i
+            while j > 0 and chi_t[j - 1] > 0.5 * threshold:
+                j -= 1
+            return j
+    return None
+
+
+def _push_interval(run: Run, obj: str, robot: str | None) -> tuple[float, float] | None:
+    if robot is None:
+        return None
+    times = [c.time for c in run.contacts if c.involves(obj) and c.involves(robot)]
+    return (min(times), max(times)) if times else None
+
+
+def _contact_before(run: Run, obj: str, onset: float | None) -> tuple[tuple[str, str] | None, float | None]:
+    """The contact pair involving `obj` that started last at or before the onset (its start time)."""
+    if onset is None:
+        return None, None
+    times = sorted({c.time for c in run.contacts})
+    if not times:
+        return None, None
+    step = min(np.diff(times)) if len(times) > 1 else 0.02
+    last_seen: dict[tuple[str, str], float] = {}
+    started: dict[tuple[str, str], float] = {}
+    for c in sorted(run.contacts, key=lambda c: c.time):
+        if c.time > onset + 1e-9 or not c.involves(obj):
+            continue
+        pair = tuple(sorted((_short(c.body_a), _short(c.body_b))))
+        if pair not in last_seen or c.time - last_seen[pair] > 1.5 * step:
+            started[pair] = c.time
+        last_seen[pair] = c.time
+    active = {p: t for p, t in started.items() if onset - last_seen[p] <= 3 * step + 1e-9}
+    pool = active or started
+    if not pool:
+        return None, None
+    pair = max(pool, key=lambda p: pool[p])
+    return pair, float(pool[pair])
+
+
+def _short(body: str) -> str:
+    return body
+
+
+def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_xyz, sim_R, d, odb) -> dict:
+    """What signatures read; all shares are fractions of the normalised residual."""
+    f: dict[str, Any] = {"recording": p.name, "object": s.object, "direction": (float(d[0]), float(d[1]))}
+    rms = math.sqrt(chi2 / n) if n else 0.0
+    f["rms"] = rms
+    f["significant"] = bool(rms > SIGNIFICANT and onset_i is not None)
+    energy = {k: float(np.sum((comps[k] / sigma[k]) ** 2)) if k in measured else 0.0
+              for k in ("along", "across", "z", "yaw", "tilt")}
+    total = sum(energy.values()) or 1.0
+    f.update({k: v / total for k, v in energy.items()})
+    t = s.times
+    if push is not None and onset_i is not None:
+        span = max(push[1] - push[0], 1e-3)
+        f["onset_rel"] = float((t[onset_i] - push[0]) / span)
+    else:
+        f["onset_rel"] = None
+    pos = np.column_stack([comps["along"], comps["across"]]) / sigma["along"]
+    mag = np.linalg.norm(pos, axis=1)
+    if push is not None:
+        k_end = int(np.clip(np.searchsorted(t, push[1]), 0, len(t) - 1))
+        f["slide_share"] = float(max(0.0, mag[-1] - mag[k_end]) / (mag.max() or 1.0))
+    else:
+        f["slide_share"] = 0.0
+    v = np.gradient(sim_xyz[:, :2], t, axis=0) @ d if len(t) > 2 else np.zeros(len(t))
+    if np.std(v) > 0 and np.std(comps["along"]) > 0:
+        f["speed_corr"] = float(abs(np.corrcoef(v, comps["along"])[0, 1]))
+    else:
+        f["speed_corr"] = 0.0
+    peak = float(np.max(np.abs(comps["along"]))) or 1.0
+    f["transient"] = float(1.0 - abs(comps["along"][-1]) / peak)
+    world_res = np.column_stack([comps["along"] * d[0] - comps["across"] * d[1],
+                                 comps["along"] * d[1] + comps["across"] * d[0]])
+    tail = world_res[onset_i:] if onset_i is not None else world_res
+    mean_dir = tail.mean(axis=0)
+    f["world_dir"] = tuple(mean_dir / (np.linalg.norm(mean_dir) or 1.0))
+    if onset_i is not None:
+        obs_move = float(np.linalg.norm(s.xyz[-1, :2] - s.xyz[onset_i, :2]))
+        sim_move = float(np.linalg.norm(sim_xyz[-1, :2] - sim_xyz[onset_i, :2]))
+        f["stall"] = float(obs_move / sim_move) if sim_move > 1e-4 else 1.0
+        f["onset_xy_obs"] = tuple(float(v) for v in s.xyz[onset_i, :2])
+        f["onset_xy_sim"] = tuple(float(v) for v in sim_xyz[onset_i, :2])
+        geometry = odb.get(p.world.objects[s.object].type).geometry
+        pose = Pose(tuple(s.xyz[onset_i]), _quat(s.R[onset_i]))
+        f["reach"] = float(support(geometry, pose, np.array([d[0], d[1], 0.0])) - float(np.dot(s.xyz[onset_i, :2], d)))
+    return f
+
+
+def _quat(R: np.ndarray):
+    from ..values import rotation_to_quat
+
+    return rotation_to_quat(R)

@@ -1,0 +1,221 @@
+"""What a diagnosis writes: diagnosis.json (schema: diagnosis.schema.json), report.md and plots."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..world import write_atomic
+from .identify import Identification, Scored, _error_json
+from .locate import Localisation, LocatedObject
+
+SCHEMA_PATH = Path(__file__).with_name("diagnosis.schema.json")
+MAX_RESIDUAL_PLOTS = 6
+
+
+def load_schema() -> dict:
+    return json.loads(SCHEMA_PATH.read_text())
+
+
+def diagnosis_json(ident: Identification, *, scene_file: str | None = None, param_file: str | None = None,
+                   noise: Mapping[str, float] | None = None) -> dict[str, Any]:
+    winner, runner = ident.winner, ident.runner_up
+    none = next(s for s in ident.ranked if s.effect == "none")
+    error: dict[str, Any] = {"before": _error_json(none.error), "after": _error_json(winner.error),
+                             "reduction": _reduction(none.error, winner.error)}
+    if ident.held_out:
+        error.update({"held_out_before": _error_json(none.held_out_error),
+                      "held_out_after": _error_json(winner.held_out_error),
+                      "held_out_reduction": _reduction(none.held_out_error, winner.held_out_error)})
+    located = [{**o.to_json(), "held_out": False} for o in ident.localisation.objects]
+    if ident.held_out_localisation is not None:
+        located += [{**o.to_json(), "held_out": True} for o in ident.held_out_localisation.objects]
+    return {
+        "format": 1,
+        "verdict": ident.verdict,
+        "winner": winner.to_json(),
+        "runner_up": runner.to_json() if runner is not None else None,
+        "margin": round(ident.margin, 3) if math.isfinite(ident.margin) else None,
+        "effects": [s.to_json() for s in ident.ranked],
+        "candidates": [{"effect": c.effect, "target": c.target, "prior": round(c.prior, 3),
+                        "screened_rms_sigma": (round(math.sqrt(c.screened_chi2 / max(1, none.n)), 3)
+                                               if math.isfinite(c.screened_chi2) else None),
+                        **({"note": c.note} if c.note else {})} for c in ident.candidates],
+        "error": error,
+        "located": located,
+        "ranking": {"objects": [[n, float(f"{v:.4g}")] for n, v in ident.localisation.objects_ranked()],
+                    "recordings": [[n, float(f"{v:.4g}")] for n, v in ident.localisation.recordings_ranked()]},
+        "recordings": {"train": list(ident.train), "held_out": list(ident.held_out)},
+        "noise": dict(noise or noise_summary(ident.localisation)),
+        "correlation_time": round(ident.tau, 3),
+        "scene_file": scene_file,
+        "param_file": param_file,
+        "notes": list(ident.notes),
+        "simulations": int(ident.simulations),
+        "seconds": round(ident.seconds, 2),
+    }
+
+
+def _reduction(before, after) -> float | None:
+    if before is None or after is None or before.e <= 0:
+        return None
+    return round(1.0 - after.e / before.e, 4)
+
+
+def noise_summary(loc: Localisation) -> dict[str, float]:
+    keys = ("along", "z", "yaw", "tilt")
+    out = {}
+    for k in keys:
+        values = [o.sigma[k] for o in loc.objects if k in o.measured]
+        if values:
+            out["position" if k == "along" else k] = float(f"{float(np.median(values)):.3g}")
+    return out
+
+
+# --- markdown -----------------------------------------------------------------------------------------------
+def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Sequence[str]) -> str:
+    w, r = ident.winner, ident.runner_up
+    lines = ["# Diagnosis", "",
+             f"**Verdict: `{ident.verdict}`**" + (f" on `{w.target}`" if ident.verdict != "none" else ""), ""]
+    if ident.verdict != "none":
+        params = ", ".join(f"{k} = {v:.4g} ± {w.std.get(k, math.nan):.2g}" for k, v in w.params.items())
+        lines += [f"- parameters: {params}"]
+        if w.derived:
+            lines += ["- derived: " + ", ".join(f"{k} = {v:.3g}" for k, v in w.derived.items())]
+    if r is not None:
+        lines += [f"- runner-up: `{r.effect}` on `{r.target}`; margin {ident.margin:.1f} (log evidence, BIC/2)"]
+    lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"
+              f"; {ident.simulations} simulations in {ident.seconds:.0f} s", ""]
+    for note in ident.notes:
+        lines.append(f"> {note}")
+    if ident.notes:
+        lines.append("")
+    e = data["error"]
+    lines += ["## Error (the paper's eq. 1-4, c = 0.01)", "", "| | e_t (mm) | e_R (deg) | e |", "|---|---|---|---|"]
+    for key, label in (("before", "fitted recordings, before"), ("after", "fitted recordings, after"),
+                       ("held_out_before", "held-out, before"), ("held_out_after", "held-out, after")):
+        if key in e:
+            v = e[key]
+            lines.append(f"| {label} | {v['e_t'] * 1e3:.2f} | {math.degrees(v['e_R']):.2f} | {v['e']:.5f} |")
+    lines += ["", "## Effects (best first)", "",
+              "| effect | target | score | k | rms/sigma | held-out e | parameters |", "|---|---|---|---|---|---|---|"]
+    for s in ident.ranked:
+        held = f"{s.held_out_error.e:.5f}" if s.held_out_error is not None else "-"
+        params = ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items())
+        lines.append(f"| {s.effect} | {s.target} | {s.score:.1f} | {s.k} | {s.rms:.2f} | {held} | {params} |")
+    lines += ["", "## Where the mismatch is", "", "```", ident.localisation.text(), "```", ""]
+    noise = data["noise"]
+    lines += ["Noise floor estimated from the observations: " +
+              ", ".join(f"{k} {v:.3g}" for k, v in noise.items()) + " (m, rad).", ""]
+    for f in figures:
+        lines.append(f"![{Path(f).stem}]({Path(f).name})")
+    return "\n".join(lines) + "\n"
+
+
+# --- plots ------------------------------------------------------------------------------------------------------
+def plot_residuals(located: LocatedObject, after: LocatedObject | None, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    t = located.times
+    for key, style in (("along", "C0"), ("across", "C1")):
+        axes[0].plot(t, located.components[key] * 1e3, style, label=f"{key}")
+        if after is not None:
+            axes[0].plot(after.times, after.components[key] * 1e3, style, ls="--", lw=1, label=f"{key} (after)")
+    for key, style in (("yaw", "C2"), ("tilt", "C3")):
+        if key in located.measured:
+            axes[1].plot(t, np.degrees(located.components[key]), style, label=key)
+            if after is not None:
+                axes[1].plot(after.times, np.degrees(after.components[key]), style, ls="--", lw=1,
+                             label=f"{key} (after)")
+    noise = located.sigma["along"] * 1e3
+    axes[0].axhspan(-3 * noise, 3 * noise, color="0.85", label="3 sigma noise")
+    for ax in axes:
+        if located.onset_s is not None:
+            ax.axvline(located.onset_s, color="k", ls=":", lw=1)
+        if located.push_s is not None:
+            ax.axvspan(*located.push_s, color="C4", alpha=0.08)
+    title = f"{located.recording} / {located.object}"
+    if located.contact:
+        title += f": onset {located.onset_s:.2f} s after {' - '.join(located.contact)}"
+    axes[0].set_title(title, fontsize=9)
+    axes[0].set_ylabel("observed - simulated (mm)")
+    axes[1].set_ylabel("deg")
+    axes[1].set_xlabel("t (s)")
+    axes[0].legend(fontsize=7, ncol=3)
+    axes[1].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_paths(before: Localisation, after: Localisation | None, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    objs = list(before.objects)
+    n = len(objs)
+    cols = min(4, max(1, n))
+    rows = int(math.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.0 * rows), squeeze=False)
+    after_by = {(o.recording, o.object): o for o in (after.objects if after else ())}
+    for ax, o in zip(axes.ravel(), objs):
+        ax.plot(o.obs_xy[:, 0] * 1e3, o.obs_xy[:, 1] * 1e3, "k.", ms=2, label="observed")
+        ax.plot(o.sim_xy[:, 0] * 1e3, o.sim_xy[:, 1] * 1e3, "C3", lw=1, label="simulated")
+        a = after_by.get((o.recording, o.object))
+        if a is not None:
+            ax.plot(a.sim_xy[:, 0] * 1e3, a.sim_xy[:, 1] * 1e3, "C0", lw=1, label="with the effect")
+        ax.set_title(o.recording[:28], fontsize=8)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.tick_params(labelsize=7)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    axes[0, 0].legend(fontsize=6)
+    fig.suptitle("object centre paths (mm)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_scores(ident: Identification, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ranked = list(ident.ranked)
+    fig, ax = plt.subplots(figsize=(6, 0.4 * len(ranked) + 1))
+    labels = [f"{s.effect} ({s.target})" for s in ranked]
+    scores = [max(s.score, 0.0) for s in ranked]
+    colors = ["C2" if s.effect == ident.verdict else "C7" for s in ranked]
+    ax.barh(labels[::-1], np.log10(1.0 + np.array(scores[::-1])), color=colors[::-1])
+    ax.set_xlabel("log10(1 + score), score = log evidence against none")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_outputs(out: Path, data: Mapping[str, Any], markdown: str) -> tuple[Path, Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    j, m = out / "diagnosis.json", out / "report.md"
+    write_atomic(j, json.dumps(data, indent=2) + "\n")
+    write_atomic(m, markdown)
+    return j, m
+
+
+def validate(data: Mapping[str, Any]) -> None:
+    """Raise jsonschema.ValidationError when `data` does not follow diagnosis.schema.json."""
+    import jsonschema
+
+    jsonschema.validate(data, load_schema())

@@ -1,0 +1,148 @@
+"""Enact action templates in simulation: their bodies' telemetry, replayed in Drake, written as recordings.
+
+This is `bridge act` and how the demo's recordings are made (demo/make_demo.py). A plan of several actions
+becomes ONE telemetry: each body is planned from the world the simulation reached after the previous one (poses
+and inferred facts), starting where the previous telemetry ended, so e.g. a place starts with the object between
+the fingers that picked it. The simulated poses before and after are stored as sparse observations, so fitting
+has something to compare with, and the notes say which actions were enacted.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from .errors import ActionError
+from .inference import infer_state
+from .odb import ObjectDatabase
+from .planning.apply import PlanStep, apply_action
+from .planning.templates import ActionTemplate
+from .recording.observations import ObservedPoses, ObservedTrack
+from .recording.recording import Recording, save_recording
+from .recording.telemetry import Telemetry
+from .sim.bodies import BODIES, world_after_replay
+from .sim.replay import ReplayResult, replay
+from .sim.scene import build_scene
+from .values import Pose
+from .world import WorldState, load_world_state
+
+STEP_PAUSE = 0.2  # s between two actions' telemetry
+
+
+@dataclass(frozen=True)
+class Enactment:
+    """A plan enacted in simulation: the telemetry, the replay of all of it, and the worlds along the way."""
+
+    telemetry: Telemetry
+    replay: ReplayResult
+    before: WorldState
+    after: WorldState  # simulated poses, inferred facts
+    expected: WorldState  # the templates' effects applied to `before`
+    steps: tuple[PlanStep, ...]
+
+    @property
+    def matches(self) -> bool:
+        """The inferred facts are exactly the templates' effects."""
+        return self.after.facts == self.expected.facts
+
+
+def body_for(templates: Mapping[str, ActionTemplate], action: str):
+    """The body (motion generator) of an action template."""
+    template = templates.get(action.lower()) or templates.get(action)
+    if template is None:
+        raise ActionError(f"unknown action {action!r}; actions: {', '.join(sorted(templates))}")
+    if template.body is None:
+        raise ActionError(f"action {template.name!r} has no body (no 'body:' in {template.source})")
+    if template.body not in BODIES:
+        raise ActionError(f"action {template.name!r}: unknown body {template.body!r} ({template.source}); bodies: "
+                          f"{', '.join(BODIES)}")
+    return template, BODIES[template.body]
+
+
+def enact(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate],
+          steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None) -> Enactment:
+    """Plan every step's body from the simulated world of the step before, join the telemetry, replay all of it
+    from `world`, infer the world after. Preconditions are checked on the expected (symbolic) states."""
+    steps = tuple(s if isinstance(s, PlanStep) else PlanStep(s[0], tuple(s[1])) for s in steps)
+    if not steps:
+        raise ActionError("nothing to enact: the plan has no steps")
+    scene = build_scene(world, odb)
+    expected = world
+    current = world
+    pieces: list[Telemetry] = []
+    for number, step in enumerate(steps, start=1):
+        template, body = body_for(templates, step.action)
+        expected = apply_action(expected, odb, templates, step.action, step.args)  # checks the precondition
+        if pieces:
+            current = _with_joints(current, pieces[-1])  # start where the last telemetry ended
+        piece = body(current, odb, list(step.args), rng=rng)
+        pieces.append(piece)
+        if number < len(steps):
+            result = replay(scene, piece, world=current)
+            inferred = infer_state(current, odb, result.final_poses, result.final_contacts, result.moved,
+                                   result.contact_pairs(), time=result.sim_time)
+            current = world_after_replay(current, scene, result, inferred.world.facts)
+    telemetry = join_telemetry(pieces, source=" then ".join(map(str, steps)))
+    result = replay(scene, telemetry, world=world)
+    inferred = infer_state(world, odb, result.final_poses, result.final_contacts, result.moved,
+                           result.contact_pairs(), time=result.sim_time)
+    after = world_after_replay(world, scene, result, inferred.world.facts)
+    return Enactment(telemetry, result, world, after, expected, steps)
+
+
+def join_telemetry(pieces: Sequence[Telemetry], source: str = "<joined>") -> Telemetry:
+    """One telemetry from several, each starting `STEP_PAUSE` after the last ended (same joints, same order)."""
+    times, rows = [pieces[0].times], [pieces[0].positions]
+    for piece in pieces[1:]:
+        if piece.joint_names != pieces[0].joint_names:
+            raise ActionError(f"cannot join telemetry of joints {list(piece.joint_names)} to {list(pieces[0].joint_names)}")
+        offset = times[-1][-1] + STEP_PAUSE - piece.times[0]
+        times.append(piece.times + offset)
+        rows.append(piece.positions)
+    return Telemetry(np.round(np.concatenate(times), 6), pieces[0].joint_names, np.vstack(rows), source=source)
+
+
+def _with_joints(world: WorldState, telemetry: Telemetry) -> WorldState:
+    """`world` with its robot's joints at the telemetry's last sample (the commanded end of the last action)."""
+    joints = dict(world.robot.joints)
+    joints.update({n: float(v) for n, v in zip(telemetry.joint_names, telemetry.positions[-1])})
+    return replace(world, robot=replace(world.robot, joints=tuple(joints.items())))
+
+
+def observed_poses(world: WorldState, result: ReplayResult, odb: ObjectDatabase) -> ObservedPoses:
+    """Sparse observations of every movable object: its pose before and its simulated pose at the end."""
+    final = {n: Pose(tuple(np.round(p.xyz, 6)), tuple(np.round(p.quat, 6))) for n, p in result.final_poses.items()}
+    tracks = [ObservedTrack(name, np.array([0.0, round(result.sim_time, 6)]), (obj.pose, final[name]))
+              for name, obj in world.objects.items() if name in final and not odb.get(obj.type).fixed]
+    return ObservedPoses(tuple(tracks), source="simulated")
+
+
+def make_recording(world_path: str | Path, action: str, args: Sequence[str], out_folder: str | Path,
+                   odb: ObjectDatabase, templates: Mapping[str, ActionTemplate], *, overwrite: bool = False,
+                   rng=None) -> Recording:
+    """`bridge act`: one action's body as a recording folder (world.yaml copied, telemetry.csv, observed.csv with
+    the simulated poses before and after, recording.yaml naming the action)."""
+    return make_plan_recording(world_path, [(action, tuple(args))], out_folder, odb, templates, overwrite=overwrite,
+                               rng=rng)
+
+
+def make_plan_recording(world_path: str | Path, steps: Sequence[PlanStep | tuple[str, Sequence[str]]],
+                        out_folder: str | Path, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate], *,
+                        name: str | None = None, overwrite: bool = False, rng=None) -> Recording:
+    """Several actions in one telemetry, written as a recording folder (see `make_recording`)."""
+    world_path = Path(world_path)
+    world = load_world_state(world_path, odb)
+    done = enact(world, odb, templates, steps, rng=rng)
+    plan = " ".join(map(str, done.steps))
+    verdict = ("the inferred facts equal the templates' effects" if done.matches else
+               f"WARNING: the inferred facts differ from the templates' effects (missing "
+               f"{' '.join(map(str, sorted(done.expected.facts - done.after.facts))) or 'none'}, extra "
+               f"{' '.join(map(str, sorted(done.after.facts - done.expected.facts))) or 'none'})")
+    notes = (f"actions: {plan}. Generated by bridge act from the action templates' bodies; observed.csv holds the "
+             f"simulated poses before and after (not a real observation). In simulation {verdict}.")
+    metadata = {"name": name or Path(out_folder).name, "robot": world.robot.type if world.robot else None,
+                "notes": notes}
+    return save_recording(out_folder, world_path, done.telemetry, observed_poses(world, done.replay, odb),
+                          {k: v for k, v in metadata.items() if v is not None}, overwrite=overwrite)
