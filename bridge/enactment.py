@@ -63,33 +63,46 @@ def body_for(templates: Mapping[str, ActionTemplate], action: str):
 
 def enact(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate],
           steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None) -> Enactment:
-    """Plan every step's body from the simulated world of the step before, join the telemetry, replay all of it
-    from `world`, infer the world after. Preconditions are checked on the expected (symbolic) states."""
-    steps = tuple(s if isinstance(s, PlanStep) else PlanStep(s[0], tuple(s[1])) for s in steps)
-    if not steps:
-        raise ActionError("nothing to enact: the plan has no steps")
+    """`plan_telemetry`, then replay all of it from `world` and infer the world after."""
+    steps = _steps(steps)
     scene = build_scene(world, odb)
-    expected = world
-    current = world
-    pieces: list[Telemetry] = []
-    for number, step in enumerate(steps, start=1):
-        template, body = body_for(templates, step.action)
-        expected = apply_action(expected, odb, templates, step.action, step.args)  # checks the precondition
-        if pieces:
-            current = _with_joints(current, pieces[-1])  # start where the last telemetry ended
-        piece = body(current, odb, list(step.args), rng=rng)
-        pieces.append(piece)
-        if number < len(steps):
-            result = replay(scene, piece, world=current)
-            inferred = infer_state(current, odb, result.final_poses, result.final_contacts, result.moved,
-                                   result.contact_pairs(), time=result.sim_time)
-            current = world_after_replay(current, scene, result, inferred.world.facts)
-    telemetry = join_telemetry(pieces, source=" then ".join(map(str, steps)))
+    telemetry, expected = plan_telemetry(world, odb, templates, steps, rng=rng, scene=scene)
     result = replay(scene, telemetry, world=world)
     inferred = infer_state(world, odb, result.final_poses, result.final_contacts, result.moved,
                            result.contact_pairs(), time=result.sim_time)
     after = world_after_replay(world, scene, result, inferred.world.facts)
     return Enactment(telemetry, result, world, after, expected, steps)
+
+
+def plan_telemetry(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate],
+                   steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None,
+                   scene=None) -> tuple[Telemetry, WorldState]:
+    """The joined telemetry of the steps' bodies and the world the templates' effects lead to. Each body after the
+    first is planned from the world the simulation reached after the one before (simulated poses, inferred facts,
+    the robot's joints where the last telemetry ended). Preconditions are checked on the expected states."""
+    steps = _steps(steps)
+    if not steps:
+        raise ActionError("nothing to enact: the plan has no steps")
+    scene = scene or build_scene(world, odb)
+    expected = world
+    current = world
+    pieces: list[Telemetry] = []
+    for number, step in enumerate(steps, start=1):
+        _, body = body_for(templates, step.action)
+        expected = apply_action(expected, odb, templates, step.action, step.args)  # checks the precondition
+        if pieces:
+            current = _with_joints(current, pieces[-1])  # start where the last telemetry ended
+        pieces.append(body(current, odb, list(step.args), rng=rng))
+        if number < len(steps):
+            result = replay(scene, pieces[-1], world=current)
+            inferred = infer_state(current, odb, result.final_poses, result.final_contacts, result.moved,
+                                   result.contact_pairs(), time=result.sim_time)
+            current = world_after_replay(current, scene, result, inferred.world.facts)
+    return join_telemetry(pieces, source=" then ".join(map(str, steps))), expected
+
+
+def _steps(steps) -> tuple[PlanStep, ...]:
+    return tuple(s if isinstance(s, PlanStep) else PlanStep(s[0], tuple(s[1])) for s in steps)
 
 
 def join_telemetry(pieces: Sequence[Telemetry], source: str = "<joined>") -> Telemetry:

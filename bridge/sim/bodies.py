@@ -225,6 +225,15 @@ def _push_once(job: Job, obj: str, d, height, travel, tilt, side, retreat_up, sp
     return job.finish(mb, after)
 
 
+def push_at(world: WorldState, odb: ObjectDatabase, args: Sequence[str], direction: Sequence[float], height: float,
+            travel: float, *, speed: float = NEAR_SPEED) -> Telemetry:
+    """A push of object `args[1]` (on `args[2]`, by robot `args[0]`) along `direction` for `travel` m, the pads'
+    leading edge `height` above the object's bottom: whatever the physics makes of it (physics tests, benchmarks)."""
+    job = start_job(world, odb, "push_at", args, ("robot", "object", "support"))
+    d = horizontal(direction)
+    return plan_push(job, job.args[1], d, height, travel, job.moved_pose(job.args[1], travel * d), speed=speed)
+
+
 def _directions(job: Job, obj: str) -> list[np.ndarray]:
     """Side normals of `obj`, pushing away from the robot first."""
     r = job.radial(obj)
