@@ -12,7 +12,8 @@
     python benchmarks/fit_benchmark.py            # the full run, < 20 minutes on 2 cores
     python benchmarks/fit_benchmark.py --quick    # < 3 minutes
 
-Prints a table and writes benchmarks/results/fit.json (or --json PATH) so two revisions can be compared.
+Prints a table and writes benchmarks/results/fit.json (fit_quick.json with --quick; or --json PATH) so two
+revisions can be compared.
 """
 from __future__ import annotations
 
@@ -205,9 +206,10 @@ def main(argv=None) -> None:
     parser.add_argument("--quick", action="store_true", help="smaller budgets, < 3 minutes")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--workers", type=int, default=2, help="workers for parts 1 and 3 (default %(default)s)")
-    parser.add_argument("--json", default=str(REPO / "benchmarks" / "results" / "fit.json"))
+    parser.add_argument("--json", default=None, help="default: benchmarks/results/fit.json (fit_quick.json with --quick)")
     args = parser.parse_args(argv)
     cfg = QUICK if args.quick else FULL
+    args.json = args.json or str(REPO / "benchmarks" / "results" / ("fit_quick.json" if args.quick else "fit.json"))
     odb = load_object_database()
     started = time.perf_counter()
     with make_executor("process", odb, workers=args.workers) as executor:

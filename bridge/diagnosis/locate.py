@@ -216,7 +216,7 @@ def _contact_before(run: Run, obj: str, onset: float | None) -> tuple[tuple[str,
     for c in sorted(run.contacts, key=lambda c: c.time):
         if c.time > onset + 1e-9 or not c.involves(obj):
             continue
-        pair = tuple(sorted((_short(c.body_a), _short(c.body_b))))
+        pair = tuple(sorted((c.body_a, c.body_b)))
         if pair not in last_seen or c.time - last_seen[pair] > 1.5 * step:
             started[pair] = c.time
         last_seen[pair] = c.time
@@ -226,10 +226,6 @@ def _contact_before(run: Run, obj: str, onset: float | None) -> tuple[tuple[str,
         return None, None
     pair = max(pool, key=lambda p: pool[p])
     return pair, float(pool[pair])
-
-
-def _short(body: str) -> str:
-    return body
 
 
 def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_xyz, sim_R, d, odb) -> dict:
@@ -260,6 +256,7 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
         f["speed_corr"] = float(abs(np.corrcoef(v, comps["along"])[0, 1]))
     else:
         f["speed_corr"] = 0.0
+    f["final_along"] = float(comps["along"][-1] / sigma["along"])
     peak = float(np.max(np.abs(comps["along"]))) or 1.0
     f["transient"] = float(1.0 - abs(comps["along"][-1]) / peak)
     world_res = np.column_stack([comps["along"] * d[0] - comps["across"] * d[1],

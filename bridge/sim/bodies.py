@@ -38,6 +38,7 @@ from .motion import Arm, MotionBuilder, arm_for, clearance_for, frame_rotation
 # the demo arm's finger pads (models/arm7): half width across the fingers' faces, and how far closed fingers reach
 PAD_HALF_WIDTH = 0.01
 PAD_HALF_SPAN = 0.012
+PAD_FRICTION = 1.0  # the pads' friction coefficient (arm7.sdf)
 FINGER_BELOW_TCP = 0.015  # m the finger ends reach beyond the tcp
 TABLE_CLEARANCE = 0.004  # m between the lowest finger point and the support while pushing
 STANDOFF = 0.02  # m between the fingertips and the face before a push
@@ -199,7 +200,7 @@ def plan_push(job: Job, obj: str, d: np.ndarray, height: float, travel: float, a
         for side in (1.0, -1.0):
             attempts.append(lambda tilt=tilt, side=side: _push_once(job, obj, d, height, travel, math.radians(tilt),
                                                                       side, retreat_up, speed, after))
-    return _first(job, attempts, f"push {obj!r} along ({d[0]:.2f}, {d[1]:.2f}) at {height * 100:.0f} cm")
+    return _first(job, attempts, f"push {obj!r} along {_dir(d)} at {height * 100:.0f} cm")
 
 
 def _push_once(job: Job, obj: str, d, height, travel, tilt, side, retreat_up, speed, after) -> Telemetry:
@@ -240,10 +241,14 @@ def _directions(job: Job, obj: str) -> list[np.ndarray]:
     return sorted(job.layout.side_normals(obj), key=lambda d: -float(d @ r))
 
 
-def tipping_height(job: Job, obj: str, support: str, d: np.ndarray) -> float:
-    """Quasi-static tipping: a push at height h tips the object when h > w / (2 mu)."""
+def tipping_height(job: Job, obj: str, support: str, d: np.ndarray, *, pad_friction: bool = False) -> float:
+    """Quasi-static tipping: a frictionless push at height h tips the object when h > w / (2 mu). The pads'
+    friction may hold the near edge down while the face turns up past them, which adds up to mu_pad * w."""
     w = 2.0 * job.layout.half_extent(obj, d)
-    return w / (2.0 * job.friction(obj, support))
+    height = w / (2.0 * job.friction(obj, support))
+    if pad_friction:
+        height += combined_friction(PAD_FRICTION, job.odb.get(job.world.objects[obj].type).physics.friction) * w
+    return height
 
 
 def push_over(world: WorldState, odb: ObjectDatabase, args: Sequence[str], *, rng=None) -> Telemetry:
@@ -254,15 +259,16 @@ def push_over(world: WorldState, odb: ObjectDatabase, args: Sequence[str], *, rn
     attempts = []
     for d in _directions(job, obj):
         w = 2.0 * job.layout.half_extent(obj, d)
-        height = job.jitter(0.8 * H, 0.005)
-        if height < 1.2 * tipping_height(job, obj, support, d):
-            attempts.append(_refuse(job, f"{obj!r} is too squat to tip along ({d[0]:.2f}, {d[1]:.2f}) "
-                                         f"(it would slide: w / (2 mu) = {tipping_height(job, obj, support, d):.3f} m)"))
+        needed = 1.15 * tipping_height(job, obj, support, d, pad_friction=True)
+        height = job.jitter(max(0.8 * H, needed), 0.003)
+        if height > 0.92 * H:
+            attempts.append(_refuse(job, f"{obj!r} is too squat to tip along {_dir(d)}: it would "
+                                         f"slide unless pushed {needed * 100:.1f} cm up, and it is {H * 100:.1f} cm high"))
             continue
         far = job.layout.centre(obj) + d * (w / 2)
         lying = Footprint(np.append(far[:2], 0.0) + d * (H / 2 + 0.01), d, H / 2 + 0.02,
                           job.layout.half_extent(obj, np.cross(UP, d)) + 0.01)
-        problem = _region_problem(job, lying, support, (obj, support), f"{obj!r} falling along ({d[0]:.2f}, {d[1]:.2f})")
+        problem = _region_problem(job, lying, support, (obj, support), f"{obj!r} falling along {_dir(d)}")
         if problem:
             attempts.append(_refuse(job, problem))
             continue
@@ -284,7 +290,7 @@ def push(world: WorldState, odb: ObjectDatabase, args: Sequence[str], *, rng=Non
     for d in _directions(job, obj):
         fp = job.layout.footprint(obj, d)
         after = Footprint(fp.centre + distance * d, d, fp.a, fp.b)
-        problem = _region_problem(job, after, support, (obj, support), f"{obj!r} slid along ({d[0]:.2f}, {d[1]:.2f})")
+        problem = _region_problem(job, after, support, (obj, support), f"{obj!r} slid along {_dir(d)}")
         if problem:
             attempts.append(_refuse(job, problem))
             continue
@@ -302,7 +308,7 @@ def push_against(world: WorldState, odb: ObjectDatabase, args: Sequence[str], *,
     towards = horizontal(job.layout.centre(target) - job.layout.centre(obj))
     attempts = []
     for d in sorted(job.layout.side_normals(obj), key=lambda d: -float(d @ towards)):
-        where = f"along ({d[0]:.2f}, {d[1]:.2f})"
+        where = f"along {_dir(d)}"
         if d @ towards <= 0.0:
             continue
         overlap = job.layout.lateral_overlap(obj, target, d)
@@ -541,6 +547,11 @@ def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     k = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def _dir(d) -> str:
+    x, y = (float(v) + 0.0 for v in np.round(np.asarray(d, dtype=float)[:2], 2))
+    return f"({x:.2f}, {y:.2f})"
 
 
 def _pt(p) -> str:

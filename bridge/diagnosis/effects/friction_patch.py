@@ -58,23 +58,25 @@ class FrictionPatch(Effect):
         return min(1.0, 0.3 + 0.5 * len(late) / max(1, len(evidence.significant())) + 0.2 * (1.0 - stall))
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
+        """Squares that begin where the objects' leading edges were at the onsets (the median entry point and
+        up to two single ones), small and large, with the coefficient moved the way the slide-on says: an object
+        that slid further than simulated met less friction."""
         specs = {p.name: p for p in self.params(evidence.world, evidence.odb, target)}
         pair = specs["mu"].null
-        entries = []
-        for f in evidence.significant():
-            if f.get("onset_rel") is None or f["onset_rel"] <= 0.1 or f.get("onset_xy_sim") is None:
-                continue
-            d = np.asarray(f["direction"])
-            entries.append(np.asarray(f["onset_xy_sim"]) + d * f.get("reach", 0.05))
-        if not entries:
-            return [{**{n: s.null for n, s in specs.items()}}]
-        centre = np.median(np.array(entries), axis=0)
-        half = 0.06
-        d = np.mean([np.asarray(f["direction"]) for f in evidence.significant()], axis=0)
-        d = d / (np.linalg.norm(d) or 1.0)
-        c = centre + d * half  # the region starts where the leading edge was at the onset
+        late = [f for f in evidence.significant()
+                if f.get("onset_rel") is not None and f["onset_rel"] > 0.1 and f.get("onset_xy_sim") is not None]
+        if not late:
+            return []
+        entries = [(np.asarray(f["onset_xy_sim"]) + np.asarray(f["direction"]) * f.get("reach", 0.05),
+                    np.asarray(f["direction"])) for f in late]
+        further = np.mean([f.get("final_along", 0.0) for f in late])
+        mu = float(np.clip((0.5 if further > 0 else 1.8) * pair, specs["mu"].lower, specs["mu"].upper))
+        points = [(np.median([e for e, _ in entries], axis=0), np.mean([d for _, d in entries], axis=0))]
+        points += entries[:2]
         out = []
-        for mu in (0.5 * pair, 1.6 * pair):
-            out.append({"cx": float(c[0]), "cy": float(c[1]), "half": half,
-                        "mu": float(np.clip(mu, specs["mu"].lower, specs["mu"].upper))})
+        for point, d in points:
+            d = d / (np.linalg.norm(d) or 1.0)
+            for half in (0.06, 0.15):
+                c = point + d * half
+                out.append({"cx": float(c[0]), "cy": float(c[1]), "half": half, "mu": mu})
         return out

@@ -1,0 +1,41 @@
+"""Noise is estimated from the data; residuals are zero for identical tracks."""
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bridge.diagnosis.residuals import estimate_noise, residual, observed_series
+from bridge.recording.observations import ObservedTrack
+from bridge.values import Pose
+
+
+def _track(noise_p, noise_r, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 2.0, 0.02)
+    x = 0.05 * np.clip(t - 0.5, 0, 1)  # a push at 5 cm/s
+    yaw = 0.2 * np.clip(t - 0.5, 0, 1)
+    poses = []
+    for ti, xi, yi in zip(t, x, yaw):
+        R = Rotation.from_rotvec(rng.normal(0, noise_r, 3)) * Rotation.from_euler("z", yi)
+        q = R.as_quat()
+        poses.append(Pose(tuple(np.array([xi, 0.0, 0.0064]) + rng.normal(0, noise_p, 3)), (q[3], q[0], q[1], q[2])))
+    return ObservedTrack("block", t, tuple(poses))
+
+
+def test_noise_is_estimated_from_second_differences():
+    track = _track(3e-4, 2e-3)
+    xyz = np.array([p.xyz for p in track.poses])
+    R = np.array([p.rotation() for p in track.poses])
+    sigma, measured, estimated = estimate_noise(track.times, xyz, R)
+    assert estimated and measured.all()
+    np.testing.assert_allclose(sigma[:3], 3e-4, rtol=0.3)
+    np.testing.assert_allclose(sigma[3:], 2e-3, rtol=0.35)
+
+
+def test_constant_components_are_not_measured():
+    track = _track(0.0, 0.0)
+    s = observed_series(track, 25.0)
+    assert list(s.measured) == [True, False, False, False, False, True]  # x and yaw move, the rest is constant
+
+
+def test_residual_of_identical_tracks_is_zero():
+    s = observed_series(_track(1e-4, 1e-3), 25.0)
+    assert np.abs(residual(s, s.xyz, s.R)).max() < 1e-12
