@@ -9,8 +9,8 @@ The generator makes every effect by a mechanism that differs from the model the 
 | mass            | a dense slug welded at the object's centre                  | the body's mass parameter                    |
 | com_offset      | a dense slug welded off-centre (moves COM, adds mass)       | the body's centre-of-mass parameter          |
 | surface_tilt    | the support fixture really rotated (object placed on it)    | a constant force m g sin(theta)              |
-| friction_patch  | the surface rebuilt from five welded tiles, one of another  | a square region whose coefficient is         |
-|                 | material (a rectangle)                                      | rewritten in the context while crossed       |
+| friction_patch  | a sheet of another material welded flush on the surface     | a square region whose coefficient is         |
+|                 | (a rectangle; objects on it press on sheet and surface)     | rewritten in the context while crossed       |
 | latency         | telemetry stamped dt early (resampled at the recorder's    | telemetry shifted by dt                      |
 | (cont.)         | clock, 100 Hz)                                              |                                              |
 | pusher_offset   | the robot's base mounted off by (dx, dy)                   | offsets added to the joint readings          |
@@ -233,15 +233,17 @@ def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.
                      "the support fixture rotated", {"tilt_deg": math.degrees(theta), "downhill_deg": math.degrees(phi),
                                                      "pivot": list(pivot)})
     if e == "friction_patch":
-        factor = (1.8, 2.6, 4.0)[level] ** sign
-        mu_tile = mu_surf * factor
-        pair = 2 * mu_obj * mu_tile / (mu_obj + mu_tile)
+        # the sheet shares the surface's plane: over it the friction is the mean of the two pairs'
+        pair0 = 2 * mu_obj * mu_surf / (mu_obj + mu_surf)
+        pair = pair0 * ((1.2, 1.32, 1.44)[level] if sign > 0 else (0.78, 0.66, 0.56)[level])
+        pair_sheet = 2 * pair - pair0
+        mu_tile = pair_sheet * mu_obj / (2 * mu_obj - pair_sheet)
         # a rectangle ahead of the start area on one side: about half of the pushes run into it
         x0 = spec.centre[0] + rng.uniform(0.03, 0.06)
         x1 = x0 + rng.uniform(0.25, 0.35)
         edge = spec.centre[1] + rng.uniform(-0.02, 0.02)
         y0, y1 = (edge, edge + 0.4) if rng.random() < 0.5 else (edge - 0.4, edge)
-        return Truth(e, spec.surface, {"mu": pair, "x0": x0}, "a surface of five tiles, one of another material",
+        return Truth(e, spec.surface, {"mu": pair, "x0": x0}, "a thin sheet of another material on the surface",
                      {"region": [x0, x1, y0, y1], "tile_mu": mu_tile})
     if e == "latency":
         dt = sign * (0.03, 0.06, 0.12)[level]
@@ -262,7 +264,7 @@ def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.
 
 def conceal(truth: Truth, spec: SceneSpec, odb: ObjectDatabase, world: WorldState, push: Push) -> TrueSetup:
     """The true world, extras, scene values and telemetry of one recording (world = the exact start)."""
-    from ..sim.extras import Slug, SurfaceTiles, WeldedShape
+    from ..sim.extras import Slug, SurfacePatch, WeldedShape
     from ..sim.scene import ObjectParams, SceneParams
 
     tel = Telemetry(push.times, ("pusher_x", "pusher_y"), push.path)
@@ -281,12 +283,8 @@ def conceal(truth: Truth, spec: SceneSpec, odb: ObjectDatabase, world: WorldStat
     elif e == "surface_tilt":
         true_world = _tilted(world, spec, odb, p["slope_x"], p["slope_y"], truth.extra["pivot"])
     elif e == "friction_patch":
-        surface = world.objects[spec.surface]
-        size = tuple(2 * half_extents(odb.get(spec.surface_type).geometry))
-        extras = (SurfaceTiles("tiles", surface.pose.xyz, size, tuple(truth.extra["region"]),
-                               odb.get(spec.surface_type).physics.friction, truth.extra["tile_mu"]),)
-        moved = ObjectState(spec.surface, surface.type, Pose((surface.pose.xyz[0], surface.pose.xyz[1], -0.6)))
-        true_world = replace(world, objects={**world.objects, spec.surface: moved})
+        top = spec.surface_xyz[2] + half_extents(odb.get(spec.surface_type).geometry)[2]
+        extras = (SurfacePatch("sheet", tuple(truth.extra["region"]), top, truth.extra["tile_mu"]),)
     elif e == "latency":
         # the recorded samples read the true motion dt later than their stamps say (true(t) = recorded(t - dt))
         rec_tel = Telemetry(push.times, tel.joint_names, tel.sample(push.times + p["dt"]))
@@ -298,7 +296,7 @@ def conceal(truth: Truth, spec: SceneSpec, odb: ObjectDatabase, world: WorldStat
         top = spec.surface_xyz[2] + half_extents(odb.get(spec.surface_type).geometry)[2]
         s = truth.extra["size"]
         extras = (WeldedShape("obstacle", "box", (s, s, 0.06), (p["x"], p["y"], top + 0.03),
-                              (0.0, 0.0, truth.extra["yaw"]), friction=0.5, modulus=1.0e7),)
+                              (0.0, 0.0, truth.extra["yaw"]), friction=0.5),)
     return TrueSetup(true_world, extras, params, true_tel, rec_tel)
 
 

@@ -3,14 +3,15 @@
 Each extra is a frozen (hashable, picklable) value with ``add_to(plant, world, odb, config)``, called before
 Finalize, so a scene built with the same extras can be cached and reused. Diagnosis uses them twice: to *model*
 an effect (a welded obstacle post) and, in the proof, to *conceal* one by a physical mechanism that differs from
-the model (a dense slug welded inside an object, a surface made of tiles with a different-friction region).
+the model (a dense slug welded inside an object, a thin sheet of another material on a surface).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.geometry import AddCompliantHydroelasticProperties, AddContactMaterial, Box, Cylinder, ProximityProperties
+from pydrake.geometry import (AddCompliantHydroelasticProperties, AddContactMaterial, AddRigidHydroelasticProperties, Box,
+                              Cylinder, ProximityProperties)
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import SpatialInertia
@@ -23,12 +24,15 @@ def _props(friction: float, modulus: float | None, resolution: float, dissipatio
     AddContactMaterial(dissipation=dissipation, friction=CoulombFriction(friction, friction), properties=props)
     if modulus is not None:
         AddCompliantHydroelasticProperties(resolution, modulus, props)
+    else:  # rigid, like the scene's fixtures: compliant objects press into it
+        AddRigidHydroelasticProperties(resolution, props)
     return props
 
 
 @dataclass(frozen=True)
 class WeldedShape:
-    """A box (size x, y, z) or an upright cylinder (radius, length) welded to the world at `xyz` / `rpy`."""
+    """A box (size x, y, z) or an upright cylinder (radius, length) welded to the world at `xyz` / `rpy`;
+    rigid hydroelastic (like the scene's fixtures) unless a `modulus` makes it compliant."""
 
     name: str
     shape: str
@@ -36,8 +40,9 @@ class WeldedShape:
     xyz: tuple[float, float, float]
     rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     friction: float = 0.5
-    modulus: float | None = 1.0e7
+    modulus: float | None = None
     color: tuple[float, float, float, float] = (0.8, 0.3, 0.2, 1.0)
+    resolution: float | None = None  # hydroelastic mesh resolution; default: the scene's resolution hint
 
     def add_to(self, plant, world, odb, config) -> None:
         if self.shape == "box" and len(self.size) == 3:
@@ -48,7 +53,7 @@ class WeldedShape:
             raise SceneError(f"extra {self.name!r}: shape must be 'box' (3 sizes) or 'cylinder' (radius, length), "
                              f"got {self.shape!r} with {len(self.size)} sizes")
         X = RigidTransform(RollPitchYaw(*self.rpy), np.asarray(self.xyz, dtype=float))
-        resolution = max(0.002, min(config.resolution_hint, 0.5 * min(self.size)))
+        resolution = self.resolution or config.resolution_hint
         plant.RegisterCollisionGeometry(plant.world_body(), X, shape, f"{self.name}/collision",
                                         _props(self.friction, self.modulus, resolution))
         plant.RegisterVisualGeometry(plant.world_body(), X, shape, f"{self.name}/visual", np.array(self.color))
@@ -77,9 +82,10 @@ class Slug:
 
 @dataclass(frozen=True)
 class SurfaceTiles:
-    """A support slab built from five welded boxes: a rectangular region `region` = (x0, x1, y0, y1) with its own
-    friction and four tiles around it, all with their tops at the same height. It stands in for a fixture that
-    has been moved out of the way, so the surface has a second material region (the proof's friction patch)."""
+    """A support slab rebuilt from five welded boxes: a rectangular region `region` = (x0, x1, y0, y1) of another
+    material and four tiles around it, tops level. It stands in for a fixture moved out of the way. Tile edges
+    should lie on the slab's hydroelastic mesh grid (multiples of the resolution hint from the slab's corner),
+    so the tiles are meshed exactly like the slab they replace: then only the friction differs."""
 
     name: str
     centre: tuple[float, float, float]  # slab centre (world)
@@ -87,15 +93,14 @@ class SurfaceTiles:
     region: tuple[float, float, float, float]
     friction: float
     region_friction: float
-    modulus: float = 1.0e7
 
     def tiles(self) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float], float]]:
         """(name, centre, size, friction) of each tile, empty tiles left out."""
         cx, cy, cz = self.centre
         sx, sy, sz = self.size
         X0, X1, Y0, Y1 = cx - sx / 2, cx + sx / 2, cy - sy / 2, cy + sy / 2
-        x0, x1, y0, y1 = (float(np.clip(self.region[0], X0, X1)), float(np.clip(self.region[1], X0, X1)),
-                          float(np.clip(self.region[2], Y0, Y1)), float(np.clip(self.region[3], Y0, Y1)))
+        x0, x1 = (float(np.clip(v, X0, X1)) for v in self.region[:2])
+        y0, y1 = (float(np.clip(v, Y0, Y1)) for v in self.region[2:])
         boxes = [("patch", (x0, x1, y0, y1), self.region_friction), ("west", (X0, x0, Y0, Y1), self.friction),
                  ("east", (x1, X1, Y0, Y1), self.friction), ("south", (x0, x1, Y0, y0), self.friction),
                  ("north", (x0, x1, y1, Y1), self.friction)]
@@ -108,5 +113,28 @@ class SurfaceTiles:
     def add_to(self, plant, world, odb, config) -> None:
         for name, xyz, size, mu in self.tiles():
             color = (0.75, 0.85, 0.75, 1.0) if name.endswith("_patch") else (0.9, 0.9, 0.9, 1.0)
-            WeldedShape(name, "box", size, xyz, friction=mu, modulus=self.modulus, color=color).add_to(
-                plant, world, odb, config)
+            WeldedShape(name, "box", size, xyz, friction=mu, color=color).add_to(plant, world, odb, config)
+
+
+@dataclass(frozen=True)
+class SurfacePatch:
+    """A sheet of another material lying on a support surface over the rectangle `region` = (x0, x1, y0, y1):
+    a rigid box whose top is `raised` above the surface's top `top_z`. With `raised` = 0 (the default) the sheet
+    and the surface share the plane: an object over the sheet presses on both, each carries half of its weight,
+    so the friction there is the mean of the two pairs' coefficients; outside the region the surface's contact
+    is exactly what it was (same geometry), and crossing the sheet's edge meets no step."""
+
+    name: str
+    region: tuple[float, float, float, float]
+    top_z: float
+    friction: float
+    raised: float = 0.0
+    thickness: float = 0.004
+
+    def add_to(self, plant, world, odb, config) -> None:
+        x0, x1, y0, y1 = self.region
+        if not (x1 > x0 and y1 > y0):
+            raise SceneError(f"surface patch {self.name!r}: region must have x1 > x0 and y1 > y0, got {self.region}")
+        z = self.top_z + self.raised - self.thickness / 2
+        WeldedShape(self.name, "box", (x1 - x0, y1 - y0, self.thickness), ((x0 + x1) / 2, (y0 + y1) / 2, z),
+                    friction=self.friction, color=(0.75, 0.85, 0.75, 1.0)).add_to(plant, world, odb, config)

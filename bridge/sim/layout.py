@@ -146,7 +146,7 @@ class Layout:
     def free_spots(self, obj: str, support_name: str, near: Sequence[float], step: float = 0.02) -> list[np.ndarray]:
         """Spots (x, y) on `support_name` where `obj` (upright, as it is turned now) would stand clear of every
         other object, nearest to `near` first."""
-        g, pose = self.geometry(support_name), self.pose(support_name)
+        pose = self.pose(support_name)
         R = pose.rotation()
         half = np.array([self.half_extent(support_name, R[:, 0]), self.half_extent(support_name, R[:, 1])])
         d = horizontal(self.pose(obj).rotation()[:, 0])

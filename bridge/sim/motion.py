@@ -13,7 +13,7 @@ from functools import lru_cache
 from typing import Iterable, Sequence
 
 import numpy as np
-from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.math import RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
@@ -384,4 +384,4 @@ def _point(p) -> str:
     return "(" + ", ".join(f"{v:.3f}" for v in np.asarray(p, dtype=float)) + ")"
 
 
-__all__ = ["Arm", "Clearance", "MotionBuilder", "RATE", "arm_for", "clearance_for", "frame_rotation", "RigidTransform"]
+__all__ = ["Arm", "Clearance", "MotionBuilder", "RATE", "arm_for", "clearance_for", "frame_rotation"]

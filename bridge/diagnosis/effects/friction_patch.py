@@ -58,9 +58,8 @@ class FrictionPatch(Effect):
         return min(1.0, 0.3 + 0.5 * len(late) / max(1, len(evidence.significant())) + 0.2 * (1.0 - stall))
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Squares that begin where the objects' leading edges were at the onsets (the median entry point and
-        up to two single ones), small and large, with the coefficient moved the way the slide-on says: an object
-        that slid further than simulated met less friction."""
+        """Squares that begin where the objects' leading edges were at the onsets (the median entry point and the
+        first single one), small and large, with a lower and a higher coefficient."""
         specs = {p.name: p for p in self.params(evidence.world, evidence.odb, target)}
         pair = specs["mu"].null
         late = [f for f in evidence.significant()
@@ -69,14 +68,14 @@ class FrictionPatch(Effect):
             return []
         entries = [(np.asarray(f["onset_xy_sim"]) + np.asarray(f["direction"]) * f.get("reach", 0.05),
                     np.asarray(f["direction"])) for f in late]
-        further = np.mean([f.get("final_along", 0.0) for f in late])
-        mu = float(np.clip((0.5 if further > 0 else 1.8) * pair, specs["mu"].lower, specs["mu"].upper))
         points = [(np.median([e for e, _ in entries], axis=0), np.mean([d for _, d in entries], axis=0))]
-        points += entries[:2]
+        points += entries[:1]
         out = []
         for point, d in points:
             d = d / (np.linalg.norm(d) or 1.0)
             for half in (0.06, 0.15):
                 c = point + d * half
-                out.append({"cx": float(c[0]), "cy": float(c[1]), "half": half, "mu": mu})
+                for factor in (0.55, 1.45):
+                    mu = float(np.clip(factor * pair, specs["mu"].lower, specs["mu"].upper))
+                    out.append({"cx": float(c[0]), "cy": float(c[1]), "half": half, "mu": mu})
         return out

@@ -39,7 +39,7 @@ class HiddenObstacle(Effect):
                        if not odb.get(o.type).fixed] + [top + 0.05])
         height = tallest - top + 0.05
         post = WeldedShape("hidden_obstacle", "cylinder", (RADIUS, height), (values["x"], values["y"], top + height / 2),
-                           friction=0.5, modulus=1.0e7)
+                           friction=0.5)
         return Contribution(extras=(post,))
 
     def signature(self, evidence: Evidence, target: str) -> float:
