@@ -5,7 +5,8 @@ For each observed object of each recording (nominal model, i.e. the world model 
   and simulated together), z, yaw and tilt;
 - the noise floor, estimated from the data (`residuals.estimate_noise`: second differences of the observed
   track) and the level of the residual in its quiet part (before anything moves);
-- the onset: the first time the smoothed, noise-normalised residual rises above the floor and stays there;
+- the onset: the first time the smoothed, noise-normalised residual rises above 3 (noise floors) and stays
+  there; a residual already there at rest (a tilted or misplaced object) has its onset at the first sample;
 - the contact event just before the onset (from the replay's contact log: which bodies started touching);
 - features an effect's signature reads (onset relative to the push, slide-on share, correlation with speed, ...);
 - a ranking of objects and recordings by excess chi^2 (chi^2 minus its expected value under pure noise).
@@ -25,7 +26,7 @@ from ..values import Pose
 from .residuals import ObservedSeries, sample_track
 from .simulation import Engine, Prepared, Run
 
-ONSET_SIGMA = 3.0  # smoothed normalised residual above which a deviation starts (and 2.5 x the quiet level)
+ONSET_SIGMA = 3.0  # smoothed normalised residual (in noise-floor units) above which a deviation starts
 ONSET_HOLD = 3  # samples it must stay above
 SMOOTH = 3  # samples in the moving average
 SIGNIFICANT = 2.0  # RMS of the normalised residual above which a (recording, object) carries a mismatch
@@ -84,9 +85,44 @@ class LocatedObject:
 
 
 @dataclass(frozen=True, eq=False)
+class LocatedForce:
+    """The robot's recorded force against the simulated one in one recording: how far off (noise floors) and by
+    what factor (observed / simulated mean magnitude while it pushes: > 1, the object resists more than the model
+    says, e.g. heavier or rougher)."""
+
+    recording: str
+    chi2: float
+    n: int
+    scale: float | None
+    sigma: float  # N
+
+    @property
+    def rms(self) -> float:
+        return math.sqrt(self.chi2 / self.n) if self.n else 0.0
+
+    @property
+    def significant(self) -> bool:
+        return self.rms > SIGNIFICANT
+
+    def to_json(self) -> dict[str, Any]:
+        return {"recording": self.recording, "rms_sigma": round(self.rms, 3), "significant": self.significant,
+                "scale": _round(self.scale, 3), "noise_N": float(f"{self.sigma:.3g}")}
+
+
+@dataclass(frozen=True, eq=False)
 class Localisation:
     objects: tuple[LocatedObject, ...]
     runs: tuple[Run, ...] = field(default=())
+    forces: tuple[LocatedForce, ...] = ()
+
+    @property
+    def any_significant(self) -> bool:
+        return any(o.significant for o in self.objects) or any(f.significant for f in self.forces)
+
+    def force_scale(self) -> float | None:
+        """Median observed / simulated force over the recordings that recorded one."""
+        scales = [f.scale for f in self.forces if f.scale is not None]
+        return float(np.median(scales)) if scales else None
 
     def ranking(self) -> list[LocatedObject]:
         return sorted(self.objects, key=lambda o: -o.excess)
@@ -113,6 +149,9 @@ class Localisation:
             onset = f"{o.onset_s:7.2f}" if o.onset_s is not None else "      -"
             lines.append(f"{(o.recording + ' / ' + o.object)[:42]:42s} {o.rms:9.1f} {onset}  {contact[:30]:30s} "
                          f"({o.direction[0]:+.2f}, {o.direction[1]:+.2f})")
+        for f in self.forces:
+            scale = f"{f.scale:.2f}x the simulated force" if f.scale is not None else "no push in both"
+            lines.append(f"{(f.recording + ' / robot force')[:42]:42s} {f.rms:9.1f}          {scale}")
         lines.append("objects by excess chi^2: " + ", ".join(f"{n} {v:.3g}" for n, v in self.objects_ranked()))
         lines.append("recordings by excess chi^2: " + ", ".join(f"{n} {v:.3g}" for n, v in self.recordings_ranked()))
         return "\n".join(lines)
@@ -127,14 +166,26 @@ def locate(engine: Engine, indices: Sequence[int] | None = None, model=()) -> Lo
     """Replay every trial (or `indices`) with `model` (default: nothing added) and locate the mismatch."""
     indices = list(range(len(engine.prepared))) if indices is None else list(indices)
     runs = engine.run(tuple(model), indices, tracks=True, contacts=True)
-    located = []
+    located, forces = [], []
     for i, run in zip(indices, runs):
         p = engine.prepared[i]
         if run.failed is not None:
             continue
         for s in p.series:
             located.append(locate_object(p, s, run, engine.odb))
-    return Localisation(tuple(located), tuple(runs))
+        if p.force is not None and run.force_residual is not None:
+            forces.append(locate_force(p, run))
+    return Localisation(tuple(located), tuple(runs), tuple(forces))
+
+
+def locate_force(p: Prepared, run: Run) -> LocatedForce:
+    obs = p.force
+    m = obs.measured
+    observed = np.linalg.norm(obs.force[:, m], axis=1)
+    simulated = np.linalg.norm((obs.force - run.force_residual)[:, m], axis=1)
+    pushing = (observed > 5 * float(np.mean(obs.sigma[m]))) & (simulated > 5 * float(np.mean(obs.sigma[m])))
+    scale = float(np.mean(observed[pushing]) / np.mean(simulated[pushing])) if pushing.sum() >= 3 else None
+    return LocatedForce(p.name, run.force_chi2, run.force_n, scale, float(np.mean(obs.sigma[m])))
 
 
 def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase) -> LocatedObject:
@@ -160,8 +211,7 @@ def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase)
     quiet_idx = np.nonzero(quiet)[0]
     quiet_idx = quiet_idx[quiet_idx == np.arange(len(quiet_idx))]  # the leading quiet stretch only
     quiet_level = float(np.sqrt(np.mean(chi_t[quiet_idx] ** 2))) if len(quiet_idx) >= 3 else None
-    threshold = max(ONSET_SIGMA, 2.5 * (quiet_level or 0.0))
-    onset_i = _onset(chi_t, threshold)
+    onset_i = _onset(chi_t, ONSET_SIGMA)
     onset = float(s.times[onset_i]) if onset_i is not None else None
 
     robot = p.world.robot.name if p.world.robot else None

@@ -9,7 +9,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..world import write_atomic
-from .identify import Identification, Scored, _error_json
+from .identify import Identification, _error_json
 from .locate import Localisation, LocatedObject
 
 SCHEMA_PATH = Path(__file__).with_name("diagnosis.schema.json")
@@ -24,15 +24,22 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, para
                    noise: Mapping[str, float] | None = None) -> dict[str, Any]:
     winner, runner = ident.winner, ident.runner_up
     none = next(s for s in ident.ranked if s.effect == "none")
-    error: dict[str, Any] = {"before": _error_json(none.error), "after": _error_json(winner.error),
-                             "reduction": _reduction(none.error, winner.error)}
+    error: dict[str, Any] = {"before": {**_error_json(none.error), "rms_sigma": round(none.rms, 4)},
+                             "after": {**_error_json(winner.error), "rms_sigma": round(winner.rms, 4)},
+                             "reduction": _reduction(none.error, winner.error),
+                             "excess_reduction": excess_reduction(none.rms, winner.rms)}
     if ident.held_out:
-        error.update({"held_out_before": _error_json(none.held_out_error),
-                      "held_out_after": _error_json(winner.held_out_error),
-                      "held_out_reduction": _reduction(none.held_out_error, winner.held_out_error)})
+        before, after = held_out_rms(none), held_out_rms(winner)
+        error.update({"held_out_before": {**_error_json(none.held_out_error), "rms_sigma": _round4(before)},
+                      "held_out_after": {**_error_json(winner.held_out_error), "rms_sigma": _round4(after)},
+                      "held_out_reduction": _reduction(none.held_out_error, winner.held_out_error),
+                      "held_out_excess_reduction": excess_reduction(before, after)})
     located = [{**o.to_json(), "held_out": False} for o in ident.localisation.objects]
     if ident.held_out_localisation is not None:
         located += [{**o.to_json(), "held_out": True} for o in ident.held_out_localisation.objects]
+    forces = [{**f.to_json(), "held_out": False} for f in ident.localisation.forces]
+    if ident.held_out_localisation is not None:
+        forces += [{**f.to_json(), "held_out": True} for f in ident.held_out_localisation.forces]
     return {
         "format": 1,
         "verdict": ident.verdict,
@@ -46,6 +53,7 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, para
                         **({"note": c.note} if c.note else {})} for c in ident.candidates],
         "error": error,
         "located": located,
+        "located_force": forces,
         "ranking": {"objects": [[n, float(f"{v:.4g}")] for n, v in ident.localisation.objects_ranked()],
                     "recordings": [[n, float(f"{v:.4g}")] for n, v in ident.localisation.recordings_ranked()]},
         "recordings": {"train": list(ident.train), "held_out": list(ident.held_out)},
@@ -57,6 +65,24 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, para
         "simulations": int(ident.simulations),
         "seconds": round(ident.seconds, 2),
     }
+
+
+def held_out_rms(s) -> float | None:
+    """RMS of the noise-normalised held-out residual (pose and force; 1 = the noise floor)."""
+    return math.sqrt(s.held_out_chi2 / s.held_out_n) if s.held_out_chi2 is not None and s.held_out_n else None
+
+
+def excess_reduction(before: float | None, after: float | None) -> float | None:
+    """How much of the residual above the noise floor is gone: 1 - sqrt(after^2 - 1) / sqrt(before^2 - 1) on
+    noise-normalised RMS values. Unlike the pose error e, which cannot fall below the measurement noise, it
+    reaches 1 when the model explains everything the noise does not; it counts the force sensor too."""
+    if before is None or after is None or before <= 1.0:
+        return None
+    return round(1.0 - math.sqrt(max(after * after - 1.0, 0.0)) / math.sqrt(before * before - 1.0), 4)
+
+
+def _round4(value: float | None) -> float | None:
+    return None if value is None else round(value, 4)
 
 
 def _reduction(before, after) -> float | None:
@@ -141,7 +167,8 @@ def plot_residuals(located: LocatedObject, after: LocatedObject | None, path: Pa
             ax.axvline(located.onset_s, color="k", ls=":", lw=1)
         if located.push_s is not None:
             ax.axvspan(*located.push_s, color="C4", alpha=0.08)
-    title = f"{located.recording} / {located.object}"
+    name = located.recording if len(located.recording) <= 40 else "..." + located.recording[-37:]
+    title = f"{name} / {located.object}"
     if located.contact:
         title += f": onset {located.onset_s:.2f} s after {' - '.join(located.contact)}"
     axes[0].set_title(title, fontsize=9)
@@ -174,7 +201,7 @@ def plot_paths(before: Localisation, after: Localisation | None, path: Path) -> 
         a = after_by.get((o.recording, o.object))
         if a is not None:
             ax.plot(a.sim_xy[:, 0] * 1e3, a.sim_xy[:, 1] * 1e3, "C0", lw=1, label="with the effect")
-        ax.set_title(o.recording[:28], fontsize=8)
+        ax.set_title(o.recording[-30:], fontsize=7)
         ax.set_aspect("equal", adjustable="datalim")
         ax.tick_params(labelsize=7)
     for ax in axes.ravel()[n:]:

@@ -101,3 +101,57 @@ def residual(obs: ObservedSeries, sim_xyz: np.ndarray, sim_R: np.ndarray) -> np.
 def normalised(obs: ObservedSeries, res: np.ndarray) -> np.ndarray:
     """Residual divided by the noise, measured components only, flattened: what scores and fits use."""
     return (res[:, obs.measured] / obs.sigma[obs.measured]).ravel()
+
+
+# --- the robot's force sensor -------------------------------------------------------------------------------------
+FORCE_COMPONENTS = ("fx", "fy", "fz")
+MIN_FORCE_SIGMA = 1e-3  # N: numerical floor
+SPARSE_FORCE_SIGMA = 0.5  # N, only when a force track is too short to estimate its noise
+
+
+@dataclass(frozen=True, eq=False)
+class ForceSeries:
+    """The observed force on the robot at the residual times, with its noise estimated from the full track."""
+
+    times: np.ndarray  # (n,)
+    force: np.ndarray  # (n, 3) N
+    sigma: np.ndarray  # (3,) N
+    measured: np.ndarray  # (3,) bool
+
+
+def force_series(observed, rate: float) -> ForceSeries:
+    """`observed` (a `bridge.recording.forces.ObservedForce`) averaged over windows of 1/rate s centred on the
+    residual times (the sensor's rate is often far above the residual's), noise from second differences of the
+    full-rate track, scaled to the window's average."""
+    times = np.asarray(observed.times, dtype=float)
+    force = np.asarray(observed.force, dtype=float)
+    measured = np.asarray(observed.measured, dtype=bool)
+    step = 1.0 / rate
+    grid = np.arange(times[0], times[-1] + 1e-9, step)
+    edges = np.searchsorted(times, np.concatenate([grid - step / 2, [grid[-1] + step / 2]]))
+    means, counts = [], []
+    for k in range(len(grid)):
+        lo, hi = edges[k], max(edges[k + 1], edges[k] + 1)
+        window = force[lo:min(hi, len(force))]
+        means.append(window.mean(axis=0) if len(window) else force[min(lo, len(force) - 1)])
+        counts.append(max(1, len(window)))
+    if len(times) >= 8:
+        d2 = force[2:] - 2 * force[1:-1] + force[:-2]
+        mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
+        sigma = 1.4826 * mad / math.sqrt(6.0) / math.sqrt(float(np.median(counts)))
+    else:
+        sigma = np.full(3, SPARSE_FORCE_SIGMA)
+    return ForceSeries(grid, np.array(means), np.maximum(sigma, MIN_FORCE_SIGMA), measured)
+
+
+def force_residual(obs: ForceSeries, sim_times: np.ndarray, sim_force: np.ndarray) -> np.ndarray:
+    """(n, 3) observed minus simulated force (N), the simulated one averaged over the same windows."""
+    step = obs.times[1] - obs.times[0] if len(obs.times) > 1 else 1.0
+    fine = np.linspace(-step / 2, step / 2, 5)
+    t = np.clip(obs.times[:, None] + fine[None, :], sim_times[0], sim_times[-1])
+    sim = np.stack([np.interp(t, sim_times, sim_force[:, k]).mean(axis=1) for k in range(3)], axis=1)
+    return obs.force - sim
+
+
+def force_normalised(obs: ForceSeries, res: np.ndarray) -> np.ndarray:
+    return (res[:, obs.measured] / obs.sigma[obs.measured]).ravel()

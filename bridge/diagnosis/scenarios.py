@@ -9,15 +9,15 @@ The generator makes every effect by a mechanism that differs from the model the 
 | mass            | a dense slug welded at the object's centre                  | the body's mass parameter                    |
 | com_offset      | a dense slug welded off-centre (moves COM, adds mass)       | the body's centre-of-mass parameter          |
 | surface_tilt    | the support fixture really rotated (object placed on it)    | a constant force m g sin(theta)              |
-| friction_patch  | a sheet of another material welded flush on the surface     | a square region whose coefficient is         |
-|                 | (a rectangle; objects on it press on sheet and surface)     | rewritten in the context while crossed       |
+| friction_patch  | a sheet of another material welded flush on the surface     | a 1 um sheet over a square that carries      |
+|                 | (a rectangle; objects on it press on sheet and surface)     | what stands on it alone                      |
 | latency         | telemetry stamped dt early (resampled at the recorder's    | telemetry shifted by dt                      |
 | (cont.)         | clock, 100 Hz)                                              |                                              |
 | pusher_offset   | the robot's base mounted off by (dx, dy)                   | offsets added to the joint readings          |
 | hidden_obstacle | a welded box of random size and yaw                         | a welded post of radius 15 mm                |
 
 Observations are the true simulation sampled at 50 Hz with Gaussian measurement noise (position and a small
-random rotation); the world state written with each recording is what a careful user would write: the object
+random rotation), and the contact force on the rod as a planar force sensor reads it (fx, fy, with noise); the world state written with each recording is what a careful user would write: the object
 flat on the modelled surface at the first observed x, y, yaw (mean of the first five samples).
 The truth of each case is written beside the recordings (truth.json), never inside them.
 """
@@ -35,6 +35,7 @@ from ..errors import DiagnosisError
 from ..names import build_name_map
 from ..odb import ObjectDatabase
 from ..odb.geometry import half_extents
+from ..recording.forces import ObservedForce
 from ..recording.observations import ObservedPoses, ObservedTrack
 from ..recording.recording import save_recording
 from ..recording.telemetry import Telemetry
@@ -45,6 +46,7 @@ OBS_RATE = 50.0  # Hz
 TEL_RATE = 100.0  # Hz
 NOISE_POSITION = 3e-4  # m, 1 sigma per axis
 NOISE_ROTATION = 2e-3  # rad, 1 sigma per axis
+NOISE_FORCE = 0.05  # N, 1 sigma per axis of the rod's force sensor
 HOLD = 0.25  # s before the push starts (room for a latency shift)
 AFTER = 0.45  # s after the pusher stops (slide-on, rest)
 PUSHER_RADIUS = 0.00476
@@ -214,7 +216,7 @@ def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.
         return Truth(e, spec.object, {"mass": m0 + added}, "a dense slug welded at the centre",
                      {"slug_mass": added})
     if e == "com_offset":
-        shift = (0.005, 0.010, 0.016)[level] if spec.name == "planar" else (0.004, 0.008, 0.012)[level]
+        shift = (0.005, 0.010, 0.016)[level] if spec.name == "planar" else (0.003, 0.005, 0.008)[level]
         angle = rng.uniform(-math.pi, math.pi)
         slug = 0.8 * m0
         r = shift * (m0 + slug) / slug
@@ -255,7 +257,8 @@ def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.
                      "the robot's base mounted off")
     if e == "hidden_obstacle":
         size = (0.02, 0.03, 0.045)[level]
-        x = spec.centre[0] + 0.10 + size / 2 + rng.uniform(-0.01, 0.01)
+        reach = half_extents(odb.get(spec.object_type).geometry)[0]
+        x = spec.centre[0] + reach + 0.055 + size / 2 + rng.uniform(-0.01, 0.01)
         y = spec.centre[1] + rng.uniform(-0.025, 0.025)
         return Truth(e, spec.surface, {"x": x, "y": y}, "a welded box",
                      {"size": size, "yaw": rng.uniform(-0.8, 0.8)})
@@ -321,8 +324,9 @@ def _tilted(world: WorldState, spec: SceneSpec, odb: ObjectDatabase, sx: float, 
 
 
 # --- generation --------------------------------------------------------------------------------------------------
-def simulate_truth(setup: TrueSetup, odb: ObjectDatabase, obj: str, end: float, scenes: dict) -> np.ndarray:
-    """The true (T, 7) track of `obj` at OBS_RATE."""
+def simulate_truth(setup: TrueSetup, odb: ObjectDatabase, obj: str, end: float, scenes: dict
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times, the true (T, 7) track of `obj` and the (T, 3) contact force on the rod, at OBS_RATE."""
     from ..sim.scene import build_scene
     from ..sim.tracks import simulate_tracks
     from .simulation import world_key
@@ -333,8 +337,8 @@ def simulate_truth(setup: TrueSetup, odb: ObjectDatabase, obj: str, end: float, 
             scenes.clear()
         scenes[key] = build_scene(setup.world, odb, extras=setup.extras)
     result = simulate_tracks(scenes[key], setup.true_telemetry, world=setup.world, params=setup.params, end=end,
-                             sample_rate=OBS_RATE)
-    return result.times, result.tracks[obj]
+                             sample_rate=OBS_RATE, robot_force=True)
+    return result.times, result.tracks[obj], result.robot_force
 
 
 def noisy_track(obj: str, times: np.ndarray, track: np.ndarray, rng: np.random.Generator,
@@ -349,9 +353,10 @@ def noisy_track(obj: str, times: np.ndarray, track: np.ndarray, rng: np.random.G
 
 
 def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
-                  noise: tuple[float, float] = (NOISE_POSITION, NOISE_ROTATION), scenes: dict | None = None
-                  ) -> tuple[list[Path], Truth]:
-    """Write `n` recording folders under `folder` (rec_00, ...) with `case`'s effect concealed; truth.json beside."""
+                  noise: tuple[float, float] = (NOISE_POSITION, NOISE_ROTATION), force_noise: float | None = NOISE_FORCE,
+                  scenes: dict | None = None) -> tuple[list[Path], Truth]:
+    """Write `n` recording folders under `folder` (rec_00, ...) with `case`'s effect concealed; truth.json beside.
+    `force_noise` None leaves the rod's force sensor out (poses only)."""
     import json
 
     spec = scene_spec(case.scene, odb)
@@ -363,8 +368,12 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
     for k, push in enumerate(pushes):
         exact = nominal_world(spec, odb, push.start)
         setup = conceal(truth, spec, odb, exact, push)
-        times, track = simulate_truth(setup, odb, spec.object, float(push.times[-1]), scenes)
+        times, track, force = simulate_truth(setup, odb, spec.object, float(push.times[-1]), scenes)
         observed = noisy_track(spec.object, times, track, rng, noise)
+        sensed = None
+        if force_noise is not None:  # a planar force sensor on the rod: fx, fy
+            sensed = force[:, :2] + rng.normal(0.0, force_noise, (len(times), 2))
+            sensed = ObservedForce(times, np.column_stack([sensed, np.zeros(len(times))]))
         first = observed.poses[:5]
         x = float(np.mean([p.xyz[0] for p in first]))
         y = float(np.mean([p.xyz[1] for p in first]))
@@ -373,7 +382,8 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
         path = folder / f"rec_{k:02d}"
         world_text = "# bridge world state\n" + _yaml(world_to_dict(world))
         save_recording(path, world_text, setup.recorded_telemetry, ObservedPoses((observed,)),
-                       {"name": f"{case.scene}_rec_{k:02d}", "robot": "planar_pusher"}, overwrite=True)
+                       {"name": f"{case.scene}_rec_{k:02d}", "robot": "planar_pusher"}, force=sensed,
+                       overwrite=True)
         paths.append(path)
     (folder / "truth.json").write_text(json.dumps({"case": case.name, **truth.to_json()}, indent=2))
     return paths, truth

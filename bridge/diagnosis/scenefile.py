@@ -10,7 +10,8 @@
 
 `load_scene_file(path)` reads and checks the file's shape (effect names, parameter names, numbers);
 `SceneFile.resolve(world, odb)` checks targets against a world and returns the `Setup`: SceneParams, a
-telemetry transform, scene extras and context hooks. `scene_setting` applies it to one recording's telemetry.
+telemetry transform, scene extras, context hooks and world pose overrides. `scene_setting` applies it to one
+recording: the world and telemetry to replay, with the scene values, extras and hooks.
 """
 from __future__ import annotations
 
@@ -136,8 +137,20 @@ def save_scene_file(path: str | Path, effects: Sequence[Applied], diagnosis: Map
     return path
 
 
-def scene_setting(scene: SceneFile, world: WorldState, telemetry: Telemetry, odb: ObjectDatabase):
-    """(SceneParams, telemetry, extras, hooks) of one recording: what `build_scene(extras=...)` and
-    `simulate_tracks(params=..., hooks=...)` take."""
+@dataclass(frozen=True, eq=False)
+class SceneSetting:
+    """What one replay of a recording runs with under a scene file: `build_scene(world, odb, extras=extras)`,
+    then `simulate_tracks(scene, telemetry, world=world, params=params, hooks=hooks)` (or `replay` when there
+    are no hooks)."""
+
+    world: WorldState
+    params: Any  # SceneParams
+    telemetry: Telemetry
+    extras: tuple
+    hooks: tuple
+
+
+def scene_setting(scene: SceneFile, world: WorldState, telemetry: Telemetry, odb: ObjectDatabase) -> SceneSetting:
+    """The scene file applied to one recording (its world state before and its telemetry)."""
     setup = scene.resolve(world, odb)
-    return setup.params, setup.telemetry.apply(telemetry), setup.extras, setup.hooks
+    return SceneSetting(setup.world(world), setup.params, setup.telemetry.apply(telemetry), setup.extras, setup.hooks)

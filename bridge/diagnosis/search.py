@@ -15,7 +15,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..fit.error import DEFAULT_C, PoseError
-from .effects import Applied, Effect, ParamSpec, get_effect
+from .effects import Applied, ParamSpec
 from .simulation import Engine, Model, Run, vector_of
 
 FD_STEP = 1.0  # normalised units
@@ -185,22 +185,33 @@ def fit(ev: Evaluator, space: Space, x0: np.ndarray, *, max_iterations: int = 6)
 
 
 def gauss_newton_step(ev: Evaluator, space: Space, x0: np.ndarray) -> tuple[np.ndarray, float]:
-    """One bounded Gauss-Newton step from x0 and the chi^2 actually reached there: a cheap screen."""
+    """A cheap screen from x0: one bounded Gauss-Newton step (and a shorter one), then, if neither lowers the
+    chi^2, steps of 1 and 3 units against the gradient; returns the best point and its chi^2."""
     f0 = ev.vector(space.model(x0))
+    c0 = float(f0 @ f0)
     J = jacobian(ev, space, x0, f0)
     if not np.any(J):
-        return x0, float(f0 @ f0)
+        return x0, c0
     step, *_ = np.linalg.lstsq(J, -f0, rcond=None)
     length = float(np.linalg.norm(step))
     if length > 8.0:  # trust region: the linearisation holds a few scales at most
         step *= 8.0 / length
-    x1 = np.clip(x0 + step, space.lower, space.upper)
-    f1 = ev.vector(space.model(x1))
-    if float(f1 @ f1) < float(f0 @ f0):
-        return x1, float(f1 @ f1)
-    x2 = np.clip(x0 + 0.3 * step, space.lower, space.upper)
-    f2 = ev.vector(space.model(x2))
-    return (x2, float(f2 @ f2)) if float(f2 @ f2) < float(f0 @ f0) else (x0, float(f0 @ f0))
+    tries = [np.clip(x0 + step, space.lower, space.upper), np.clip(x0 + 0.3 * step, space.lower, space.upper)]
+    best_x, best_c = x0, c0
+    for x in tries:
+        c = ev.chi2(space.model(x))
+        if c < best_c:
+            best_x, best_c = x, c
+    if best_c < c0:
+        return best_x, best_c
+    g = -(J.T @ f0)
+    g = g / (np.linalg.norm(g) or 1.0)
+    for size in (1.0, 3.0):
+        x = np.clip(x0 + size * g, space.lower, space.upper)
+        c = ev.chi2(space.model(x))
+        if c < best_c:
+            best_x, best_c = x, c
+    return best_x, best_c
 
 
 # --- errors and evidence --------------------------------------------------------------------------------------
@@ -247,15 +258,3 @@ def bic(chi2: float, n: int, k: int, tau: float) -> float:
     """Schwarz's criterion with the noise floor as sigma, on tau-discounted samples: chi2/tau + k ln(n/tau)."""
     n_eff = max(2.0, n / tau)
     return chi2 / tau + k * math.log(n_eff)
-
-
-def effect_parts(effect: Effect, world, odb, target: str) -> Part:
-    return Part(effect.name, target, tuple(effect.params(world, odb, target)))
-
-
-def applied_key(a: Applied) -> tuple:
-    return (a.effect, a.target)
-
-
-def lookup(name: str) -> Effect:
-    return get_effect(name)

@@ -25,7 +25,8 @@ from ..values import Contact
 from ..world import WorldState
 from .effects import Applied, get_effect
 from .effects.base import Contribution, scene_params
-from .residuals import ObservedSeries, normalised, observed_series, residual, sample_track
+from .residuals import (ForceSeries, ObservedSeries, force_normalised, force_residual, force_series, normalised,
+                        observed_series, residual, sample_track)
 
 Model = tuple[Applied, ...]
 FAILED_RESIDUAL = 1.0e3  # per normalised component of a replay that failed: far worse than any fit
@@ -86,13 +87,15 @@ def resolve(model: Model, world: WorldState, odb: ObjectDatabase) -> Setup:
 # --- trials prepared for residuals -------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class Prepared:
-    """A trial with its observed series (per observed object that the world has as a free body)."""
+    """A trial with its observed series (per observed object that the world has as a free body) and, when the
+    robot's force was recorded, its force series."""
 
     name: str
     world: WorldState
     telemetry: Telemetry
     series: tuple[ObservedSeries, ...]
     end: float  # s simulated
+    force: ForceSeries | None = None
 
     @property
     def objects(self) -> tuple[str, ...]:
@@ -111,23 +114,29 @@ def prepare(trial: Any, odb: ObjectDatabase, rate: float = 25.0) -> Prepared:
         series.append(observed_series(track, rate))
     if not series:
         raise DiagnosisError("no observed free object to compare with", source=str(getattr(trial, "source", trial.name)))
+    force = getattr(trial, "force", None)
+    force = force_series(force, rate) if force is not None and trial.world.robot is not None else None
     last_obs = max(float(s.times[-1]) for s in series)
     end = max(last_obs, float(trial.telemetry.times[-1])) + 0.02
-    return Prepared(trial.name, trial.world, trial.telemetry, tuple(series), end)
+    return Prepared(trial.name, trial.world, trial.telemetry, tuple(series), end, force)
 
 
 @dataclass(frozen=True, eq=False)
 class Run:
-    """One model on one trial: residual (n, 6) per observed object, optionally the simulated tracks and contacts."""
+    """One model on one trial: residual (n, 6) per observed object and (n, 3) of the robot's force when it was
+    recorded, optionally the simulated tracks and contacts."""
 
     trial: str
     residuals: Mapping[str, np.ndarray]
-    normalised: np.ndarray  # every object's measured components / sigma, flattened
+    normalised: np.ndarray  # every object's measured components / sigma, then the force's, flattened
     failed: str | None = None
     sim_times: np.ndarray | None = None
     tracks: Mapping[str, np.ndarray] | None = None
     contacts: tuple[Contact, ...] = ()
     wall: float = 0.0
+    force_residual: np.ndarray | None = None
+    force_chi2: float = 0.0  # the force rows' share of chi2
+    force_n: int = 0
 
     @property
     def chi2(self) -> float:
@@ -165,7 +174,8 @@ class _Worker:
             scene = self.scene(world, setup.extras)
             telemetry = setup.telemetry.apply(p.telemetry)
             result = simulate_tracks(scene, telemetry, world=world, params=setup.params, end=p.end,
-                                     sample_rate=self.sample_rate, hooks=setup.hooks, contacts=want_contacts)
+                                     sample_rate=self.sample_rate, hooks=setup.hooks, contacts=want_contacts,
+                                     robot_force=p.force is not None)
         except BridgeError as exc:
             return _failed(p, str(exc))
         except RuntimeError as exc:  # Drake's own errors (e.g. a geometry it cannot mesh)
@@ -176,16 +186,24 @@ class _Worker:
             r = residual(s, xyz, R)
             residuals[s.object] = r
             parts.append(normalised(s, r))
+        f_res, f_norm = None, np.zeros(0)
+        if p.force is not None:
+            f_res = force_residual(p.force, result.times, result.robot_force)
+            f_norm = force_normalised(p.force, f_res)
+            parts.append(f_norm)
         return Run(p.name, residuals, np.concatenate(parts), None,
                    result.times if want_tracks else None,
                    {k: v for k, v in result.tracks.items()} if want_tracks else None,
-                   result.contact_log if want_contacts else (), result.wall_time)
+                   result.contact_log if want_contacts else (), result.wall_time, f_res, float(f_norm @ f_norm),
+                   int(f_norm.size))
 
 
 def _failed(p: Prepared, message: str) -> Run:
     n = sum(int(s.measured.sum()) * len(s.times) for s in p.series)
+    n_force = 0 if p.force is None else int(p.force.measured.sum()) * len(p.force.times)
     residuals = {s.object: np.full((len(s.times), 6), np.nan) for s in p.series}
-    return Run(p.name, residuals, np.full(n, FAILED_RESIDUAL), message)
+    return Run(p.name, residuals, np.full(n + n_force, FAILED_RESIDUAL), message,
+               force_chi2=n_force * FAILED_RESIDUAL ** 2, force_n=n_force)
 
 
 def world_key(world: WorldState) -> tuple:

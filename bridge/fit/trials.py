@@ -16,6 +16,7 @@ from typing import Iterable, Mapping, Sequence
 
 from ..errors import FitError
 from ..odb import ObjectDatabase
+from ..recording.forces import ObservedForce
 from ..recording.observations import ObservedPoses
 from ..recording.telemetry import Telemetry
 from ..world import WorldState
@@ -34,6 +35,7 @@ class Trial:
     observations: ObservedPoses
     source: Path
     notes: tuple[str, ...] = ()
+    force: ObservedForce | None = None  # the robot's force sensor, when recorded
 
     @property
     def settle(self) -> float:
@@ -124,7 +126,8 @@ def _push_trial(push, odb: ObjectDatabase, frame_yaw: float, observation_rate: f
         notes.append(f"{push.spec.shape}: mesh frame turned {math.degrees(frame_yaw):+.0f} deg from the pose frame")
     if push.repairs:
         notes.append(f"{len(push.repairs)} object_pose row(s) dropped for clock jitter (see load_push)")
-    return Trial(push.path.stem, session.world, session.telemetry, session.observations, push.path, tuple(notes))
+    return Trial(push.path.stem, session.world, session.telemetry, session.observations, push.path, tuple(notes),
+                 session.force)
 
 
 def _recording_trial(folder: Path, odb: ObjectDatabase) -> Trial:
@@ -140,7 +143,8 @@ def _recording_trial(folder: Path, odb: ObjectDatabase) -> Trial:
     if unknown:
         raise FitError(f"observed object {unknown[0]!r} is not in world.yaml; objects: {', '.join(world.objects)}",
                        source=str(folder))
-    return Trial(recording.name, world, recording.telemetry, recording.observations, folder)
+    return Trial(recording.name, world, recording.telemetry, recording.observations, folder,
+                 force=recording.force)
 
 
 def _unique_names(trials: Sequence[Trial]) -> list[Trial]:

@@ -19,6 +19,7 @@ from ..odb.geometry import z_range
 from ..values import Pose
 from ..world import ObjectState, RobotState, WorldState
 from .mitpush import PUSHER_RADIUS, PushRecording, _signed_distance, load_outline
+from .forces import ObservedForce
 from .observations import ObservedPoses, ObservedTrack
 from .telemetry import Telemetry
 
@@ -26,6 +27,7 @@ SURFACE_TYPE = "push_surface"
 ROBOT_TYPE = "planar_pusher"
 SURFACE_NAME, ROBOT_NAME = "surface", "pusher"
 OBSERVATION_RATE = 25.0  # Hz of the observed track kept for the error (the file has about 250 Hz)
+SPIKY = 0.1  # a force whose 90th percentile is below this share of its peak is spikes, not a push
 START_CLEARANCE = 1e-4  # m between rod and outline at t = 0 when the recorded start would penetrate
 
 
@@ -41,6 +43,7 @@ class PushSession:
     frame_yaw: float
     tip_shift: tuple[float, float] = (0.0, 0.0)
     notes: tuple[str, ...] = ()
+    force: ObservedForce | None = None  # ft_wrench's fx, fy (fz not measured), when it can be trusted
 
 
 def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float = 0.0, observation_rate: float = OBSERVATION_RATE,
@@ -96,8 +99,24 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
     pose = np.column_stack([np.interp(times, push.t, push.object_pose[:, k]) for k in range(3)])
     poses = tuple(Pose.from_rpy((x, y, half_height), (0.0, 0.0, yaw + frame_yaw)) for x, y, yaw in pose)
     observations = ObservedPoses((ObservedTrack(shape, times, poses),), source=src)
+    force, why = _force(push)
+    if why:
+        notes.append(why)
     return PushSession(world, telemetry, observations, float(frame_yaw), (float(shift[0]), float(shift[1])),
-                       tuple(notes))
+                       tuple(notes), force)
+
+
+def _force(push: PushRecording) -> tuple[ObservedForce | None, str]:
+    """The pusher force (fx, fy) as an ObservedForce, unless it is absent or spikes over a near-zero signal
+    (then it measures something else than the push: rect1's trials); the text says why it was left out."""
+    if push.wrench is None:
+        return None, ""
+    magnitude = np.hypot(push.wrench[:, 0], push.wrench[:, 1])
+    if float(np.percentile(magnitude, 90)) < SPIKY * float(magnitude.max()):
+        return None, (f"ft_wrench not used: near zero ({np.percentile(magnitude, 90):.2f} N at the 90th "
+                      f"percentile) with spikes to {magnitude.max():.1f} N")
+    return ObservedForce(push.t, np.column_stack([push.wrench[:, :2], np.zeros(len(push.t))]),
+                         source=f"{push.path}:ft_wrench"), ""
 
 
 def _start_clearance(push: PushRecording, outline: np.ndarray, frame_yaw: float) -> tuple[float, np.ndarray]:

@@ -13,16 +13,18 @@ from typing import Any, Mapping
 import yaml
 
 from ..errors import RecordingError
+from .forces import ObservedForce, load_force_csv, save_force_csv
 from .observations import ObservedPoses, load_observations_csv, save_observations_csv
 from .telemetry import Telemetry, load_telemetry, read_text, save_telemetry_csv, write_text_atomic
 
 RECORDING_FILE = "recording.yaml"
 WORLD_FILE = "world.yaml"
 OBSERVATIONS_FILE = "observed.csv"
+FORCE_FILE = "force.csv"
 TELEMETRY_FILE = "telemetry.csv"  # what save_recording writes
 TELEMETRY_CANDIDATES = ("telemetry.csv", "telemetry.mcap", "telemetry", "telemetry.bag")  # looked for, in order
-FIELDS = ("name", "robot", "telemetry", "telemetry_topic", "observations", "scene", "notes")
-PATH_FIELDS = ("telemetry", "observations", "scene")  # relative to the recording folder
+FIELDS = ("name", "robot", "telemetry", "telemetry_topic", "observations", "force", "scene", "notes")
+PATH_FIELDS = ("telemetry", "observations", "force", "scene")  # relative to the recording folder
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,6 +37,7 @@ class Recording:
     telemetry: Telemetry
     observations: ObservedPoses | None = None
     metadata: dict[str, Any] = field(default_factory=dict)  # recording.yaml as written (empty when absent)
+    force: ObservedForce | None = None  # force.csv: what the robot's force sensor read
 
     @property
     def robot(self) -> str | None:
@@ -70,16 +73,21 @@ def load_recording(folder: str | os.PathLike[str]) -> Recording:
     if observations_path is None and (folder / OBSERVATIONS_FILE).is_file():
         observations_path = folder / OBSERVATIONS_FILE
     observations = None if observations_path is None else load_observations_csv(observations_path)
+    force_path = _named_path(folder, metadata, "force")
+    if force_path is None and (folder / FORCE_FILE).is_file():
+        force_path = folder / FORCE_FILE
+    force = None if force_path is None else load_force_csv(force_path)
     _named_path(folder, metadata, "scene")  # checked here so a missing scene file is reported with the recording
     return Recording(name=metadata.get("name") or folder.resolve().name, folder=folder, world_path=world_path,
-                     telemetry=telemetry, observations=observations, metadata=metadata)
+                     telemetry=telemetry, observations=observations, metadata=metadata, force=force)
 
 
 def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str], telemetry: Telemetry,
                    observations: ObservedPoses | None = None, metadata: Mapping[str, Any] | None = None, *,
-                   overwrite: bool = False) -> Recording:
+                   force: ObservedForce | None = None, overwrite: bool = False) -> Recording:
     """Write a recording folder and read it back. `world` is the world-state YAML text (a str) or a file to
-    copy (a path object). Telemetry is written as telemetry.csv, observations as observed.csv; every file is
+    copy (a path object). Telemetry is written as telemetry.csv, observations as observed.csv, a force track as
+    force.csv; every file is
     replaced atomically. An existing non-empty folder is refused unless `overwrite`."""
     folder = Path(folder)
     src = str(folder)
@@ -88,7 +96,7 @@ def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str]
     if folder.is_dir() and any(folder.iterdir()) and not overwrite:
         raise RecordingError("folder is not empty; pass overwrite=True to replace its recording files", source=src)
     meta = _check_metadata(dict(metadata or {}), "metadata argument")
-    for key in ("telemetry", "observations", "telemetry_topic"):
+    for key in ("telemetry", "observations", "force", "telemetry_topic"):
         if key in meta:
             raise RecordingError(f"save_recording sets {key!r} itself; leave it out of the metadata",
                                  source="metadata argument", field=key)
@@ -102,11 +110,15 @@ def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str]
     meta["telemetry"] = TELEMETRY_FILE
     if observations is not None:
         meta["observations"] = OBSERVATIONS_FILE
+    if force is not None:
+        meta["force"] = FORCE_FILE
     ordered = {key: meta[key] for key in FIELDS if key in meta}
     write_text_atomic(folder / WORLD_FILE, world_text)
     save_telemetry_csv(folder / TELEMETRY_FILE, telemetry)
     if observations is not None:
         save_observations_csv(folder / OBSERVATIONS_FILE, observations)
+    if force is not None:
+        save_force_csv(folder / FORCE_FILE, force)
     write_text_atomic(folder / RECORDING_FILE, yaml.safe_dump(ordered, sort_keys=False, allow_unicode=True))
     return load_recording(folder)
 

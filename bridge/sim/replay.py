@@ -48,6 +48,7 @@ class ReplayResult:
     wall_time: float
     robot: str | None = None
     joint_track: np.ndarray | None = field(default=None)  # (T, J) simulated robot positions
+    robot_force: np.ndarray | None = field(default=None)  # (T, 3) N on the robot from what it touches, world
 
     @property
     def final_poses(self) -> dict[str, Pose]:
@@ -110,6 +111,18 @@ class ContactReader:
                 if a != b and frozenset((a, b)) not in seen:
                     contacts.append(Contact(a, b, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), t))
         return [c for c in contacts if c.body_a != c.body_b]
+
+    def force_on(self, contacts: Sequence[Contact], robot: str) -> np.ndarray:
+        """The net contact force (world frame, N) on the robot's links from everything that is not the robot:
+        what a force-torque sensor between the robot and its tool would read."""
+        total = np.zeros(3)
+        for c in contacts:
+            a_robot, b_robot = (b == robot or b.startswith(robot + "/") for b in (c.body_a, c.body_b))
+            if b_robot and not a_robot:
+                total += c.force
+            elif a_robot and not b_robot:
+                total -= c.force
+        return total
 
     def _near_pairs(self, query, proximity: float) -> list:
         """Signed distances of the pairs closer than `proximity`. Drake has no distance query for some shape

@@ -30,12 +30,13 @@ class ContextHook(Protocol):
 
 def simulate_tracks(scene: Scene, telemetry: Telemetry | None, *, world=None, params: SceneParams | None = None,
                     end: float | None = None, sample_rate: float = 50.0, hooks: Sequence[ContextHook] = (),
-                    contacts: bool = False, max_speed: float = 20.0) -> ReplayResult:
+                    contacts: bool = False, robot_force: bool = False, max_speed: float = 20.0) -> ReplayResult:
     """Simulate from t = 0 to `end` (default: the telemetry's last time + 0.3 s) and sample every object's pose.
 
     Telemetry times may start after 0 or before it (a latency shift): the robot holds the first sample before
     and the last sample after the recording. `max_speed` (m/s) turns an exploding simulation into a
-    `SimulationFailure` instead of garbage.
+    `SimulationFailure` instead of garbage. `robot_force` samples the contact force on the robot
+    (`ReplayResult.robot_force`), what its force sensor would read.
     """
     world = world or scene.world
     plant = scene.plant
@@ -55,7 +56,10 @@ def simulate_tracks(scene: Scene, telemetry: Telemetry | None, *, world=None, pa
     sample_times = np.linspace(0.0, (n - 1) / sample_rate, n)
     names = list(scene.bodies)
     tracks = {name: np.zeros((n, 7)) for name in names}
-    reader = ContactReader(scene) if contacts else None
+    robot_name = world.robot.name if world.robot is not None else None
+    want_force = robot_force and robot_name is not None
+    reader = ContactReader(scene) if contacts or want_force else None
+    force = np.zeros((n, 3)) if want_force else None
     log = []
     states = [hook.start(scene, context, params or SceneParams()) for hook in hooks]
     simulator = Simulator(scene.diagram, context)
@@ -83,11 +87,15 @@ def simulate_tracks(scene: Scene, telemetry: Telemetry | None, *, world=None, pa
         for hook, state in zip(hooks, states):
             hook.update(scene, context, float(t), poses, state)
         if reader is not None:
-            log.extend(reader.read(context, float(t)))
+            now = reader.read(context, float(t))
+            if contacts:
+                log.extend(now)
+            if force is not None:
+                force[k] = reader.force_on(now, robot_name)
     wall = wallclock.perf_counter() - started
     moved = tuple(name for name in names if _moved(tracks[name]))
     robot = world.robot.name if world.robot else None
     touched = tuple(sorted({c.other(robot) for c in log if robot and c.involves(robot)
                             and not c.other(robot).startswith(robot + "/")} - {"world"}))
     return ReplayResult(sample_times, tracks, (), tuple(log), moved, touched, 0.0, float(sample_times[-1]), wall,
-                        robot, None)
+                        robot, None, force)

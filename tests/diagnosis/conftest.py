@@ -1,5 +1,4 @@
 """Shared fixtures: the object database and small generated proof cases (real Drake)."""
-from pathlib import Path
 
 import pytest
 

@@ -52,7 +52,8 @@ def test_models_enter_the_replay_the_documented_way(planar_world, odb):
     assert post.extras[0].shape == "cylinder" and post.extras[0].xyz[:2] == (0.1, 0.0)
     patch = resolve((Applied.of("friction_patch", "surface", {"cx": 0.1, "cy": 0.0, "half": 0.05, "mu": 0.1}),),
                     planar_world, odb)
-    assert patch.hooks[0].pair_friction == 0.1 and patch.hooks[0].objects == ("block",)
+    sheet = patch.extras[0]
+    assert sheet.friction == 0.1 and sheet.region == pytest.approx((0.05, 0.15, -0.05, 0.05))
 
 
 def test_scene_file_round_trips_and_names_bad_entries(tmp_path, planar_world, odb):

@@ -40,7 +40,8 @@ def test_world_telemetry_and_observations(mit_push_root, odb):
     assert world.robot.type == "planar_pusher" and world.robot.base_pose.xyz == pytest.approx((0, 0, 0.00635))
     assert session.telemetry.joint_names == ("pusher_x", "pusher_y")
     np.testing.assert_allclose(session.telemetry.positions, push.tip_xy)
-    assert session.tip_shift == (0.0, 0.0) and session.notes == ()
+    assert session.tip_shift == (0.0, 0.0) and not any("rod" in n for n in session.notes)
+    assert session.force is None and "ft_wrench not used" in session.notes[0]  # rect1: spikes only
     track = session.observations.track("rect1")
     assert np.allclose(np.diff(track.times)[:-1], 0.04) and track.times[-1] == pytest.approx(push.duration)
     assert track.poses[0].xyz == pytest.approx(block.pose.xyz)

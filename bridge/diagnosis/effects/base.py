@@ -86,6 +86,7 @@ class Evidence:
     world: WorldState
     odb: ObjectDatabase
     joint_kinds: Mapping[str, str] = field(default_factory=dict)
+    force_scale: float | None = None  # observed / simulated force on the robot while it pushes (None: no sensor)
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))

@@ -1,0 +1,42 @@
+"""Localisation on generated recordings (real Drake): the onset follows the contact that causes it, the push
+direction is the object's, the noise floor is the generator's, and a clean recording stays quiet."""
+import numpy as np
+import pytest
+
+from bridge.diagnosis.locate import locate
+from bridge.diagnosis.scenarios import NOISE_POSITION, NOISE_ROTATION, Case, generate_case
+from bridge.diagnosis.simulation import Engine, prepare
+from bridge.fit.trials import load_trials
+
+
+def _engine(case, odb, tmp_path, n=2):
+    paths, truth = generate_case(case, odb, tmp_path / case.name, n)
+    trials = load_trials(paths, odb)
+    return Engine([prepare(t, odb, 25.0) for t in trials], odb, workers=1), truth
+
+
+@pytest.mark.slow
+def test_com_offset_onset_follows_the_pusher_contact(odb, tmp_path):
+    engine, _ = _engine(Case("planar", "com_offset", "large", 1), odb, tmp_path)
+    loc = locate(engine)
+    assert len(loc.objects) == 2
+    for o in loc.objects:
+        assert o.significant
+        assert o.push_s is not None and o.onset_s >= o.push_s[0] - 0.1
+        assert o.contact is not None and "pusher/pusher_rod" in o.contact and "block" in o.contact
+        obs_dir = o.obs_xy[-1] - o.obs_xy[0]
+        assert np.dot(o.direction, obs_dir / np.linalg.norm(obs_dir)) > 0.9
+        # the noise floor comes from the data and matches the generator's noise
+        assert o.sigma["along"] == pytest.approx(NOISE_POSITION, rel=0.35)
+        assert o.sigma["yaw"] == pytest.approx(NOISE_ROTATION, rel=0.4)
+    assert [r for r, _ in loc.recordings_ranked()][0] == loc.ranking()[0].recording
+    assert "onset_s" in loc.to_json()[0]
+
+
+@pytest.mark.slow
+def test_clean_recordings_stay_at_the_noise_floor(odb, tmp_path):
+    engine, _ = _engine(Case("planar", "none", "medium", 1), odb, tmp_path)
+    loc = locate(engine)
+    for o in loc.objects:
+        assert not o.significant and o.rms < 2.0
+        assert o.quiet_level is None or o.quiet_level < 2.0
