@@ -7,7 +7,8 @@ Recipe (`identify`):
 2. fit the ordinary parameters first: the friction coefficients of the object carrying most of the residual and
    of the surface it slides on (the `friction` model);
 3. screen every other effect of the catalog, each together with the friction coefficients, likely ones first
-   (their signature against the localisation): one Gauss-Newton step from the null values for smooth effects,
+   (their signature against the localisation), from the fitted coefficients: one Gauss-Newton step from the
+   effect's null values for smooth effects,
    the seeds the localisation suggests for the others (an obstacle where objects stalled, a region where the
    residual began);
 4. fit the best screened candidates fully with the friction coefficients (Levenberg-Marquardt) and score
@@ -98,6 +99,8 @@ class Scored:
             out["error"] = _error_json(self.error)
         if self.held_out_error is not None:
             out["held_out_error"] = _error_json(self.held_out_error)
+        if self.held_out_chi2 is not None and self.held_out_n:
+            out["held_out_rms_sigma"] = round(math.sqrt(self.held_out_chi2 / self.held_out_n), 3)
         if self.derived:
             out["derived"] = {k: float(f"{v:.4g}") for k, v in self.derived.items()}
         return out
@@ -194,14 +197,19 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
             candidates.append(Candidate(name, target, float(effect.signature(evidence, target))))
     candidates.sort(key=lambda c: -c.prior)
     screened = []
-    nulls = [{s.name: s.null for s in p.specs} for p in friction_parts]
+    fitted_friction = base_fit.values()  # every candidate starts from the fitted coefficients
+    nominal_friction = [{s.name: s.null for s in p.specs} for p in friction_parts]
     for c in candidates:
         effect = get_effect(c.effect)
         space = Space(friction_parts + [Part(c.effect, c.target, tuple(effect.params(world, odb, c.target)))])
         if effect.smooth:
-            x, chi2 = gauss_newton_step(ev, space, np.zeros(space.dim))
+            x, chi2 = gauss_newton_step(ev, space, space.to_x(fitted_friction + [effect.null_values(world, odb,
+                                                                                                 c.target)]))
         else:
-            starts = [space.to_x(nulls + [seed]) for seed in effect.seeds(evidence, c.target)]
+            # each seed with the fitted coefficients and with the nominal ones (the friction fit may have taken
+            # up what the effect explains, e.g. a heavier object's larger push force)
+            starts = [space.to_x(frictions + [seed]) for seed in effect.seeds(evidence, c.target)
+                      for frictions in (fitted_friction, nominal_friction)]
             if not starts:
                 screened.append(Candidate(c.effect, c.target, c.prior, math.inf, (), "no seed from the localisation"))
                 continue

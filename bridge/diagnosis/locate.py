@@ -306,6 +306,10 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
         f["speed_corr"] = float(abs(np.corrcoef(v, comps["along"])[0, 1]))
     else:
         f["speed_corr"] = 0.0
+    # when the object starts to move, observed and simulated: a clock offset shifts one against the other
+    level = max(QUIET_MOTION, 5.0 * float(np.mean(s.sigma[:2])))
+    for key, xyz in (("moves_obs_s", s.xyz), ("moves_sim_s", sim_xyz)):
+        f[key] = _crossing(t, np.linalg.norm(xyz[:, :2] - xyz[:3, :2].mean(axis=0), axis=1), level)
     f["final_along"] = float(comps["along"][-1] / sigma["along"])
     peak = float(np.max(np.abs(comps["along"]))) or 1.0
     f["transient"] = float(1.0 - abs(comps["along"][-1]) / peak)
@@ -324,6 +328,18 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
         pose = Pose(tuple(s.xyz[onset_i]), _quat(s.R[onset_i]))
         f["reach"] = float(support(geometry, pose, np.array([d[0], d[1], 0.0])) - float(np.dot(s.xyz[onset_i, :2], d)))
     return f
+
+
+def _crossing(t: np.ndarray, d: np.ndarray, level: float) -> float | None:
+    """The time `d` first crosses `level`, interpolated between samples (None if it never does)."""
+    above = np.nonzero(d > level)[0]
+    if not len(above):
+        return None
+    k = int(above[0])
+    if k == 0:
+        return float(t[0])
+    w = (level - d[k - 1]) / max(d[k] - d[k - 1], 1e-12)
+    return float(t[k - 1] + np.clip(w, 0.0, 1.0) * (t[k] - t[k - 1]))
 
 
 def _quat(R: np.ndarray):

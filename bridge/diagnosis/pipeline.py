@@ -104,15 +104,19 @@ def _plots(ident: Identification, after: Localisation | None, out: Path) -> list
 
 def save_param_equivalent(path: Path, model: Sequence[Applied], world, odb: ObjectDatabase) -> Path | None:
     """The model as a `bridge fit` parameter file (fixed values), when every effect maps onto a parameter kind
-    (friction, mass, com, latency, joint offsets; a surface tilt as its tangential force); None otherwise."""
+    (friction, mass spread like the object's own, com without a mass change, latency, joint offsets; a surface
+    tilt as its tangential force); None otherwise."""
     from ..fit.params import parse_params, save_param_file
 
     entries = []
     for a in model:
         v = a.values()
-        if a.effect in ("friction", "mass"):
-            entries.append({"kind": a.effect, "target": a.target, "value": v["mu" if a.effect == "friction" else "mass"]})
-        elif a.effect == "com_offset":
+        if a.effect == "friction":
+            entries.append({"kind": "friction", "target": a.target, "value": v["mu"]})
+        elif a.effect == "mass" and abs(v.get("spread", 1.0) - 1.0) < 0.05:  # the kind scales the inertia
+            entries.append({"kind": "mass", "target": a.target, "value": v["mass"]})
+        elif a.effect == "com_offset" and abs(v.get("mass", 0.0) / odb.mass_properties(
+                world.objects[a.target].type).mass - 1.0) < 0.01:  # a changed mass here keeps the inertia
             com = odb.mass_properties(world.objects[a.target].type).com
             entries += [{"kind": "com_x", "target": a.target, "value": float(com[0] + v["dx"])},
                         {"kind": "com_y", "target": a.target, "value": float(com[1] + v["dy"])}]

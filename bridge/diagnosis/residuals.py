@@ -107,6 +107,7 @@ def normalised(obs: ObservedSeries, res: np.ndarray) -> np.ndarray:
 FORCE_COMPONENTS = ("fx", "fy", "fz")
 MIN_FORCE_SIGMA = 1e-3  # N: numerical floor
 SPARSE_FORCE_SIGMA = 0.5  # N, only when a force track is too short to estimate its noise
+FORCE_MODEL_ERROR = 0.03  # share of the observed force a simulated contact force is trusted to (assumed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,43 +116,48 @@ class ForceSeries:
 
     times: np.ndarray  # (n,)
     force: np.ndarray  # (n, 3) N
-    sigma: np.ndarray  # (3,) N
+    sigma: np.ndarray  # (3,) N: the sensor's noise, from the data
     measured: np.ndarray  # (3,) bool
+
+    @property
+    def tolerance(self) -> np.ndarray:
+        """(n, 3) N per sample: the noise and FORCE_MODEL_ERROR of the force's size, added in quadrature. A
+        simulated contact force is not exact (stiff contacts, jams against an obstacle reach tens of newtons
+        and are sensitive to everything); without this share a force residual would drown the poses."""
+        size = np.linalg.norm(self.force, axis=1, keepdims=True)
+        return np.sqrt(self.sigma[None, :] ** 2 + (FORCE_MODEL_ERROR * size) ** 2)
 
 
 def force_series(observed, rate: float) -> ForceSeries:
-    """`observed` (a `bridge.recording.forces.ObservedForce`) averaged over windows of 1/rate s centred on the
-    residual times (the sensor's rate is often far above the residual's), noise from second differences of the
-    full-rate track, scaled to the window's average."""
+    """`observed` (a `bridge.recording.forces.ObservedForce`) on a grid of `rate` Hz, each value the mean over
+    the 1/rate s window around it (`window_mean`, the same operation the simulated force gets, so impacts and
+    steps compare like with like); the noise from second differences of the full-rate track (not reduced for
+    the averaging: a conservative floor)."""
     times = np.asarray(observed.times, dtype=float)
     force = np.asarray(observed.force, dtype=float)
-    measured = np.asarray(observed.measured, dtype=bool)
-    step = 1.0 / rate
-    grid = np.arange(times[0], times[-1] + 1e-9, step)
-    edges = np.searchsorted(times, np.concatenate([grid - step / 2, [grid[-1] + step / 2]]))
-    means, counts = [], []
-    for k in range(len(grid)):
-        lo, hi = edges[k], max(edges[k + 1], edges[k] + 1)
-        window = force[lo:min(hi, len(force))]
-        means.append(window.mean(axis=0) if len(window) else force[min(lo, len(force) - 1)])
-        counts.append(max(1, len(window)))
+    grid = np.arange(times[0], times[-1] + 1e-9, 1.0 / rate)
     if len(times) >= 8:
         d2 = force[2:] - 2 * force[1:-1] + force[:-2]
         mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
-        sigma = 1.4826 * mad / math.sqrt(6.0) / math.sqrt(float(np.median(counts)))
+        sigma = 1.4826 * mad / math.sqrt(6.0)
     else:
         sigma = np.full(3, SPARSE_FORCE_SIGMA)
-    return ForceSeries(grid, np.array(means), np.maximum(sigma, MIN_FORCE_SIGMA), measured)
+    return ForceSeries(grid, window_mean(times, force, grid), np.maximum(sigma, MIN_FORCE_SIGMA),
+                       np.asarray(observed.measured, dtype=bool))
+
+
+def window_mean(times: np.ndarray, values: np.ndarray, grid: np.ndarray, points: int = 9) -> np.ndarray:
+    """(len(grid), k): the mean of the linearly interpolated signal over the window of one grid step around each
+    grid time (`points` samples per window; the signal is held beyond its ends)."""
+    step = grid[1] - grid[0] if len(grid) > 1 else 0.0
+    t = grid[:, None] + np.linspace(-step / 2, step / 2, points)[None, :]
+    return np.stack([np.interp(t, times, values[:, k]).mean(axis=1) for k in range(values.shape[1])], axis=1)
 
 
 def force_residual(obs: ForceSeries, sim_times: np.ndarray, sim_force: np.ndarray) -> np.ndarray:
-    """(n, 3) observed minus simulated force (N), the simulated one averaged over the same windows."""
-    step = obs.times[1] - obs.times[0] if len(obs.times) > 1 else 1.0
-    fine = np.linspace(-step / 2, step / 2, 5)
-    t = np.clip(obs.times[:, None] + fine[None, :], sim_times[0], sim_times[-1])
-    sim = np.stack([np.interp(t, sim_times, sim_force[:, k]).mean(axis=1) for k in range(3)], axis=1)
-    return obs.force - sim
+    """(n, 3) observed minus simulated force (N), both averaged over the same windows."""
+    return obs.force - window_mean(sim_times, sim_force, obs.times)
 
 
 def force_normalised(obs: ForceSeries, res: np.ndarray) -> np.ndarray:
-    return (res[:, obs.measured] / obs.sigma[obs.measured]).ravel()
+    return (res[:, obs.measured] / obs.tolerance[:, obs.measured]).ravel()

@@ -69,6 +69,7 @@ class ObjectParams:
     dissipation: float | None = None
     mass: float | None = None
     com: tuple[float, float, float] | None = None
+    inertia_scale: float | None = None  # rotational inertia about the COM x this (None: x mass / database mass)
 
 
 @dataclass(frozen=True)
@@ -193,12 +194,12 @@ class Scene:
                 props = proximity(obj_type, self.config, p)
                 for gid in self.geometries[name]:
                     self.scene_graph.AssignRole(sg_ctx, self.plant.get_source_id(), gid, props, RoleAssign.kReplace)
-            if (p.mass is not None or p.com is not None) and name in self.bodies:
+            if (p.mass is not None or p.com is not None or p.inertia_scale is not None) and name in self.bodies:
                 body = self.bodies[name]
                 mp = self.odb.mass_properties(obj_type.name)
                 mass = p.mass if p.mass is not None else mp.mass
                 com = np.asarray(p.com if p.com is not None else mp.com, dtype=float)
-                I_com = mp.inertia * (mass / mp.mass)
+                I_com = mp.inertia * (p.inertia_scale if p.inertia_scale is not None else mass / mp.mass)
                 G = UnitInertia(*(np.diag(I_com) / mass), *(I_com[[0, 0, 1], [1, 2, 2]] / mass))
                 M_com = SpatialInertia(mass, np.zeros(3), G)
                 body.SetSpatialInertiaInBodyFrame(plant_ctx, M_com.Shift(-com))
@@ -218,7 +219,7 @@ class Scene:
 
     def _apply_link_params(self, sg_ctx, name: str, p: ObjectParams) -> None:
         """Friction and dissipation of a robot link, on top of its model's contact properties."""
-        if any(v is not None for v in (p.hydroelastic_modulus, p.mass, p.com)):
+        if any(v is not None for v in (p.hydroelastic_modulus, p.mass, p.com, p.inertia_scale)):
             raise SceneError(f"robot link {name!r}: only friction, dynamic_friction and dissipation can be set",
                              field="params")
         inspector = self.scene_graph.model_inspector()

@@ -1,7 +1,8 @@
 """`com_offset`: the centre of mass is not where uniform density puts it (an insert, a hollow, a load).
 
 It changes where friction's pressure is centred, so a push turns the object more or less than simulated
-(quasi-static pushing), and a tall object tips at a different push height.
+(quasi-static pushing), and a tall object tips at a different push height. A hidden weight also adds mass,
+which shows in the robot's force: the effect fits the mass with the offset.
 """
 from __future__ import annotations
 
@@ -22,13 +23,17 @@ class ComOffset(Effect):
 
     def params(self, world, odb, target):
         hx, hy, _ = footprint_half(world, odb, target)
+        m = odb.mass_properties(world.objects[target].type).mass
         return (ParamSpec("dx", -0.6 * hx, 0.6 * hx, 0.0, 0.1 * hx, "m", "object frame"),
-                ParamSpec("dy", -0.6 * hy, 0.6 * hy, 0.0, 0.1 * hy, "m", "object frame"))
+                ParamSpec("dy", -0.6 * hy, 0.6 * hy, 0.0, 0.1 * hy, "m", "object frame"),
+                ParamSpec("mass", 0.2 * m, 5.0 * m, m, 0.3 * m, "kg", "the object with what moved its centre"))
 
     def contribute(self, world, odb, target, values):
-        com = odb.mass_properties(world.objects[target].type).com
+        props = odb.mass_properties(world.objects[target].type)
+        com = props.com
         return Contribution(objects=((target, ObjectParams(
-            com=(float(com[0] + values["dx"]), float(com[1] + values["dy"]), float(com[2])))),))
+            com=(float(com[0] + values["dx"]), float(com[1] + values["dy"]), float(com[2])),
+            mass=values.get("mass", props.mass), inertia_scale=1.0)),))  # a compact weight: inertia stays
 
     def describe(self, world, odb, target, values):
         return {"offset_mm": 1e3 * math.hypot(values["dx"], values["dy"])}
