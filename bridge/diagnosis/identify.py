@@ -202,19 +202,23 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
     for c in candidates:
         effect = get_effect(c.effect)
         space = Space(friction_parts + [Part(c.effect, c.target, tuple(effect.params(world, odb, c.target)))])
+        # each seed with the fitted coefficients and with the nominal ones (the friction fit may have taken up
+        # what the effect explains, e.g. a heavier object's larger push force); smooth effects then take one
+        # Gauss-Newton step from the best start of each
+        starts = [space.to_x(frictions + [seed]) for seed in effect.seeds(evidence, c.target)
+                  for frictions in (fitted_friction, nominal_friction)]
+        if not starts:
+            screened.append(Candidate(c.effect, c.target, c.prior, math.inf, (), "no seed from the localisation"))
+            continue
+        ev.runs_many([space.model(x) for x in starts])  # one batch on the workers
+        chis = [ev.chi2(space.model(x)) for x in starts]
+        x, chi2 = starts[int(np.argmin(chis))], float(min(chis))
         if effect.smooth:
-            x, chi2 = gauss_newton_step(ev, space, space.to_x(fitted_friction + [effect.null_values(world, odb,
-                                                                                                 c.target)]))
-        else:
-            # each seed with the fitted coefficients and with the nominal ones (the friction fit may have taken
-            # up what the effect explains, e.g. a heavier object's larger push force)
-            starts = [space.to_x(frictions + [seed]) for seed in effect.seeds(evidence, c.target)
-                      for frictions in (fitted_friction, nominal_friction)]
-            if not starts:
-                screened.append(Candidate(c.effect, c.target, c.prior, math.inf, (), "no seed from the localisation"))
-                continue
-            chis = [ev.chi2(space.model(x)) for x in starts]
-            x, chi2 = starts[int(np.argmin(chis))], float(min(chis))
+            for family in (starts[0::2], starts[1::2]):  # fitted, nominal coefficients
+                best = min(family, key=lambda y: ev.chi2(space.model(y)))
+                y, c2 = gauss_newton_step(ev, space, best)
+                if c2 < chi2:
+                    x, chi2 = y, c2
         screened.append(Candidate(c.effect, c.target, c.prior, chi2, tuple(space.values(x))))
         say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}")
 

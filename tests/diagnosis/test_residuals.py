@@ -1,5 +1,6 @@
 """Noise is estimated from the data; residuals are zero for identical tracks."""
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from bridge.diagnosis.residuals import estimate_noise, residual, observed_series
@@ -39,3 +40,21 @@ def test_constant_components_are_not_measured():
 def test_residual_of_identical_tracks_is_zero():
     s = observed_series(_track(1e-4, 1e-3), 25.0)
     assert np.abs(residual(s, s.xyz, s.R)).max() < 1e-12
+
+
+def test_force_noise_is_estimated_and_identical_forces_leave_no_residual():
+    from bridge.diagnosis.residuals import FORCE_MODEL_ERROR, force_residual, force_series
+    from bridge.recording.forces import ObservedForce
+
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, 2.0, 0.004)  # a 250 Hz sensor
+    clean = np.column_stack([2.0 * np.clip(t - 0.5, 0, 0.2) / 0.2, 0.5 * np.sin(t), np.zeros_like(t)])
+    noisy = ObservedForce(t, clean + np.column_stack([rng.normal(0, 0.05, (len(t), 2)), np.zeros(len(t))]))
+    series = force_series(noisy, 25.0)
+    assert series.sigma[:2] == pytest.approx([0.05, 0.05], rel=0.2)  # from the data, not assumed
+    assert series.measured.tolist() == [True, True, False]
+    sim = force_series(ObservedForce(t, clean), 25.0)
+    assert np.abs(force_residual(sim, t, clean)).max() < 1e-9
+    # the tolerance grows with the force: 3 % of 2 N on top of the noise
+    pushing = series.force[:, 0] > 1.9
+    assert np.all(series.tolerance[pushing, 0] > np.hypot(series.sigma[0], FORCE_MODEL_ERROR * 1.9))

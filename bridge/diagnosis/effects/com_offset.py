@@ -38,6 +38,15 @@ class ComOffset(Effect):
     def describe(self, world, odb, target, values):
         return {"offset_mm": 1e3 * math.hypot(values["dx"], values["dy"])}
 
+    def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
+        """No offset, at the database's mass and, when a force was recorded, at the mass the force ratio says."""
+        null = self.null_values(evidence.world, evidence.odb, target)
+        out = [null]
+        if evidence.force_scale is not None and abs(evidence.force_scale - 1.0) > 0.1:
+            spec = self.params(evidence.world, evidence.odb, target)[2]
+            out.append({**null, "mass": float(min(max(evidence.force_scale * spec.null, spec.lower), spec.upper))})
+        return out
+
     def signature(self, evidence: Evidence, target: str) -> float:
         early = 1.0 - min(1.0, max(0.0, evidence.mean("onset_rel", 0.0)))
         return 0.2 + 0.6 * evidence.mean("yaw") * early + 0.1 * early
