@@ -38,8 +38,7 @@ from .locate import Localisation, locate
 from .search import Evaluator, FitResult, Part, Space, bic, correlation_time, fit, gauss_newton_step, pose_error_of
 from .simulation import Engine, Model, chi2_of
 
-MAX_FULL_FITS = 3  # candidates fitted fully after screening
-MIN_FULL_FITS = 2  # so a runner-up is fitted too
+MAX_FULL_FITS = 4  # candidates fitted fully after screening
 NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise floor
 MIN_GAIN = 0.2  # share of the simpler model's excess chi^2 that extra parameters must remove
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
@@ -225,16 +224,15 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
     reference = min(none_chi2, base_fit.chi2)
 
     def rank_key(c: Candidate) -> float:
-        gain = max(0.0, reference - c.screened_chi2) / max(reference, 1e-12)
+        gain = (reference - c.screened_chi2) / max(reference, 1e-12)  # < 0: the screen made it worse
         return -(gain * (0.5 + 0.5 * c.prior))
 
     order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
     # 4. full fits, each effect together with the friction coefficients, from the screened point
     fitted: list[Scored] = _held_out(engine, held_out, [none, friction_scored])
-    accepted = 0
-    for i, c in enumerate(order[:options.max_full_fits]):
-        if i >= MIN_FULL_FITS and accepted:  # one confirmed effect and a runner-up: enough
-            break
+    # every one of the best `max_full_fits`: a single Gauss-Newton step is a rough screen (an off-centre weight in
+    # a tall box screened at no gain and fitted to half the residual of the screen's favourite)
+    for c in order[:options.max_full_fits]:
         effect = get_effect(c.effect)
         space = Space(friction_parts + [Part(c.effect, c.target, tuple(effect.params(world, odb, c.target)))])
         # start from the screened point, or from the fitted friction with the screened effect if that is better
@@ -253,7 +251,6 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
                 f"{_fmt({a.target: a.values()['mu'] for a in base_fit.model()})}, rms {fitted[1].rms:.1f}")
         fitted.append(scored)
         ok = _acceptable(scored, fitted[0], fitted[1], bool(held_out)) is None
-        accepted += ok
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
             f"{'' if ok else ' - not confirmed'}")
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
