@@ -2,24 +2,27 @@
 hidden_obstacle in the tabletop scene, and clean cases; each diagnosed blind from 8 recordings (6 fitted, 2 held
 out). Prints the confusion matrix and the summary, writes benchmarks/results/prove.json (and the generated
 recordings under --out). Targets: verdict right >= 90 %, `none` on clean data >= 90 %, held-out error falls
->= 70 % when the verdict is right, diagnosing 8 recordings <= 5 min on 2 cores.
+>= 70 % when the verdict is right (median over those cases, of the residual above the noise floor: the pose
+error e itself cannot fall below the measurement noise; its median is printed beside), diagnosing 8 recordings
+<= 5 min on 2 cores.
 
-    python benchmarks/prove_benchmark.py [--out DIR] [--workers 2] [--only planar|tabletop] [--resume]
+    python benchmarks/prove_benchmark.py [--out DIR] [--workers 2] [--only planar|tabletop] [--resume|--summarise]
+
+The figures cover every case in OUT/progress.json (so a run resumed after an interruption counts them all).
 """
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
-from bridge.diagnosis.prove import SETTINGS, ProofResult, proof_cases, run_case
+from bridge.diagnosis.prove import SETTINGS, proof_cases, proof_json, proof_text, run_case, summarise
 from bridge.odb import load_object_database
 
 REPO = Path(__file__).resolve().parents[1]
 TARGETS = {"verdict_right": 0.9, "none_on_clean": 0.9, "held_out_excess_reduction_when_right_median": 0.7,
-           "seconds_per_case_max": 300.0}
+           "seconds_per_case_max": 300.0}  # seconds: diagnosing one case's 8 recordings
 
 
 def main() -> None:
@@ -28,39 +31,36 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--only", choices=("planar", "tabletop"), default=None)
     parser.add_argument("--resume", action="store_true", help="skip cases already in OUT/progress.json")
+    parser.add_argument("--summarise", action="store_true",
+                        help="run nothing: print and save the figures of the cases in OUT/progress.json")
     args = parser.parse_args()
-    odb = load_object_database()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    cases = [c for c in proof_cases("full") if args.only is None or c.scene == args.only]
     progress_path = out / "progress.json"
-    done = {}
-    if args.resume and progress_path.is_file():
-        done = {r["case"]: r for r in json.loads(progress_path.read_text())}
-    results, started = [], time.perf_counter()
-    rows = list(done.values())
-    for k, case in enumerate(cases):
-        if case.name in done:
-            continue
-        r = run_case(case, odb, out / case.name, SETTINGS["full"], workers=args.workers)
-        results.append(r)
-        rows.append(r.to_json())
-        progress_path.write_text(json.dumps(rows, indent=1))
-        print(f"[{k + 1}/{len(cases)}] {case.name}: {r.verdict} ({r.recovery.text}) {r.seconds:.0f} s", flush=True)
-    proof = ProofResult("full", tuple(results), time.perf_counter() - started)
-    print(proof.text())
-    if done:
-        print(f"({len(done)} earlier case(s) from {progress_path} are in progress.json, not in the table above)")
+    rows = json.loads(progress_path.read_text()) if (args.resume or args.summarise) and progress_path.is_file() else []
+    started = time.perf_counter()
+    if not args.summarise:
+        odb = load_object_database()
+        done = {r["case"] for r in rows}
+        cases = [c for c in proof_cases("full") if args.only is None or c.scene == args.only]
+        for k, case in enumerate(cases):
+            if case.name in done:
+                continue
+            r = run_case(case, odb, out / case.name, SETTINGS["full"], workers=args.workers)
+            rows.append(r.to_json())
+            progress_path.write_text(json.dumps(rows, indent=1))
+            print(f"[{k + 1}/{len(cases)}] {case.name}: {r.verdict} ({r.recovery.text}) {r.seconds:.0f} s", flush=True)
+    text = proof_text(rows)
+    print(text)
     result_path = REPO / "benchmarks" / "results" / "prove.json"
     result_path.parent.mkdir(parents=True, exist_ok=True)
-    result_path.write_text(json.dumps(proof.to_json(), indent=2) + "\n")
-    (out / "proof.md").write_text("# Proof (full)\n\n```\n" + proof.text() + "\n```\n")
+    result_path.write_text(json.dumps(proof_json("full", rows, time.perf_counter() - started), indent=2) + "\n")
+    (out / "proof.md").write_text("# Proof (full)\n\n```\n" + text + "\n```\n")
     print(f"wrote {result_path}")
-    summary = proof.summary()
-    missed = [k for k, t in TARGETS.items() if t is not None and summary.get(k) is not None
-              and (summary[k] > t if k.startswith("seconds") else summary[k] < t)]
+    summary = summarise(rows)
+    missed = [k for k, t in TARGETS.items() if summary.get(k) is None
+              or (summary[k] > t if k.startswith("seconds") else summary[k] < t)]
     print("targets: " + ("all met" if not missed else "missed " + ", ".join(missed)))
-    sys.exit(0)
 
 
 if __name__ == "__main__":

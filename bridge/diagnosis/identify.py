@@ -41,6 +41,8 @@ from .simulation import Engine, Model, chi2_of
 MAX_FULL_FITS = 4  # candidates fitted fully after screening
 NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise floor
 MIN_GAIN = 0.2  # share of the simpler model's excess chi^2 that extra parameters must remove
+NEAR_NOISE_GAIN = 0.5  # the same when the simpler model is within NOISE_RMS of the noise floor: what is left there
+#                        is as likely the start poses' error (read from noisy observations) as missing physics
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
 
 
@@ -324,7 +326,7 @@ def _acceptable(s: Scored, none: Scored, friction: Scored | None, checked: bool)
     simpler = [none] if s.effect == "friction" or friction is None else [none, friction]
     base = simpler[-1]
     excess = max(base.chi2 - base.n, 0.0)
-    if base.chi2 - s.chi2 < MIN_GAIN * excess:
+    if base.chi2 - s.chi2 < (MIN_GAIN if base.rms >= NOISE_RMS else NEAR_NOISE_GAIN) * excess:
         return (f"{s.effect} removes only {100 * (base.chi2 - s.chi2) / max(excess, 1e-12):.0f} % of the residual "
                 f"above the noise that {base.effect} leaves")
     if checked and not _held_out_ok(s, simpler):
@@ -338,8 +340,9 @@ def _verdict(scored: list[Scored], checked: bool) -> tuple[str, str | None]:
     Models are nested: `friction` adds the friction coefficients to `none`, every effect adds its own parameters
     to `friction`. A model is accepted over the simpler one it extends when
     - its extra parameters remove at least MIN_GAIN of the simpler model's excess chi^2 (chi^2 - n: the part
-      above the noise floor); BIC alone trusts the noise model, and a residual that is not quite white makes
-      any extra parameter look decisive over thousands of samples;
+      above the noise floor), NEAR_NOISE_GAIN when the simpler model is already within NOISE_RMS of the floor;
+      BIC alone trusts the noise model, and a residual that is not quite white makes any extra parameter look
+      decisive over thousands of samples;
     - on held-out recordings (when there are any) it lowers the chi^2 below the simpler models' (or keeps them
       at the noise floor when they are there already and so cannot tell).
     """

@@ -196,61 +196,84 @@ class ProofResult:
     results: tuple[CaseResult, ...]
     seconds: float
 
+    @property
+    def rows(self) -> list[dict[str, Any]]:
+        return [r.to_json() for r in self.results]
+
     def confusion(self) -> tuple[list[str], dict[str, dict[str, int]]]:
-        labels = [e for e in EFFECTS if any(r.truth.effect == e or r.verdict == e for r in self.results)]
-        matrix = {t: {v: 0 for v in labels} for t in labels}
-        for r in self.results:
-            matrix[r.truth.effect][r.verdict] += 1
-        return labels, matrix
+        return confusion(self.rows)
 
     def summary(self) -> dict[str, Any]:
-        concealed = [r for r in self.results if r.truth.effect != "none"]
-        clean = [r for r in self.results if r.truth.effect == "none"]
-        right = [r for r in concealed if r.right]
-        reductions = [r.held_out_excess_reduction for r in right if r.held_out_excess_reduction is not None]
-        e_reductions = [r.held_out_reduction for r in right if r.held_out_reduction is not None]
-        return {
-            "cases": len(self.results),
-            "concealed": len(concealed),
-            "verdict_right": _frac(len(right), len(concealed)),
-            "target_right": _frac(sum(r.target_ok for r in concealed), len(concealed)),
-            "params_recovered_when_right": _frac(sum(r.recovery.ok for r in right), len(right)),
-            "none_on_clean": _frac(sum(r.right for r in clean), len(clean)),
-            "held_out_excess_reduction_when_right_median": float(np.median(reductions)) if reductions else None,
-            "held_out_excess_reduction_when_right_min": float(np.min(reductions)) if reductions else None,
-            "held_out_excess_reduction_at_least_70pct": _frac(sum(x >= 0.7 for x in reductions), len(reductions)),
-            "held_out_e_reduction_when_right_median": float(np.median(e_reductions)) if e_reductions else None,
-            "seconds_per_case_median": float(np.median([r.seconds for r in self.results])) if self.results else None,
-            "seconds_per_case_max": float(np.max([r.seconds for r in self.results])) if self.results else None,
-        }
+        return summarise(self.rows)
 
     def text(self) -> str:
-        labels, matrix = self.confusion()
-        short = {e: e[:9] for e in labels}
-        lines = ["confusion matrix (rows: concealed effect, columns: verdict)",
-                 f"{'':16s}" + "".join(f"{short[v]:>10s}" for v in labels)]
-        for t in labels:
-            if sum(matrix[t].values()) == 0:
-                continue
-            lines.append(f"{t:16s}" + "".join(f"{matrix[t][v]:10d}" for v in labels))
-        lines.append("")
-        lines.append(f"{'case':36s} {'verdict':16s} {'target':7s} {'params':7s} {'held-out e (m)':>21s} "
-                     f"{'excess':>7s} {'s':>6s}  recovery")
-        for r in self.results:
-            ho = (f"{r.held_out_before:.5f}->{r.held_out_after:.5f}" if r.held_out_before is not None
-                  and r.held_out_after is not None else "-")
-            ex = f"{-100 * r.held_out_excess_reduction:+.0f}%" if r.held_out_excess_reduction is not None else "-"
-            lines.append(f"{r.case.name:36s} {r.verdict:16s} {str(r.target_ok):7s} {str(r.recovery.ok):7s} "
-                         f"{ho:>21s} {ex:>7s} {r.seconds:6.1f}  {r.recovery.text}")
-        lines.append("")
-        for k, v in self.summary().items():
-            lines.append(f"{k}: {v if not isinstance(v, float) else round(v, 3)}")
-        return "\n".join(lines)
+        return proof_text(self.rows)
 
     def to_json(self) -> dict[str, Any]:
-        labels, matrix = self.confusion()
-        return {"size": self.size, "seconds": round(self.seconds, 1), "summary": self.summary(),
-                "confusion": {"labels": labels, "matrix": matrix}, "cases": [r.to_json() for r in self.results]}
+        return proof_json(self.size, self.rows, self.seconds)
+
+
+# --- figures from case rows (CaseResult.to_json(); also what the benchmark's progress.json holds) ----------------
+def confusion(rows: Sequence[dict[str, Any]]) -> tuple[list[str], dict[str, dict[str, int]]]:
+    labels = [e for e in EFFECTS if any(r["effect"] == e or r["verdict"] == e for r in rows)]
+    matrix = {t: {v: 0 for v in labels} for t in labels}
+    for r in rows:
+        matrix[r["effect"]][r["verdict"]] += 1
+    return labels, matrix
+
+
+def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    concealed = [r for r in rows if r["effect"] != "none"]
+    clean = [r for r in rows if r["effect"] == "none"]
+    right = [r for r in concealed if r["verdict"] == r["effect"]]
+    reductions = [r["held_out_excess_reduction"] for r in right if r.get("held_out_excess_reduction") is not None]
+    e_reductions = [r["held_out_reduction"] for r in right if r.get("held_out_reduction") is not None]
+    seconds = [r["seconds"] for r in rows]
+    return {
+        "cases": len(rows),
+        "concealed": len(concealed),
+        "verdict_right": _frac(len(right), len(concealed)),
+        "target_right": _frac(sum(r["target_ok"] for r in concealed), len(concealed)),
+        "params_recovered_when_right": _frac(sum(r["recovered"] for r in right), len(right)),
+        "none_on_clean": _frac(sum(r["verdict"] == "none" for r in clean), len(clean)),
+        "held_out_excess_reduction_when_right_median": float(np.median(reductions)) if reductions else None,
+        "held_out_excess_reduction_when_right_min": float(np.min(reductions)) if reductions else None,
+        "held_out_excess_reduction_at_least_70pct": _frac(sum(x >= 0.7 for x in reductions), len(reductions)),
+        "held_out_e_reduction_when_right_median": float(np.median(e_reductions)) if e_reductions else None,
+        "seconds_per_case_median": float(np.median(seconds)) if seconds else None,
+        "seconds_per_case_max": float(np.max(seconds)) if seconds else None,
+    }
+
+
+def proof_text(rows: Sequence[dict[str, Any]]) -> str:
+    labels, matrix = confusion(rows)
+    short = {e: e[:9] for e in labels}
+    lines = ["confusion matrix (rows: concealed effect, columns: verdict)",
+             f"{'':16s}" + "".join(f"{short[v]:>10s}" for v in labels)]
+    for t in labels:
+        if sum(matrix[t].values()) == 0:
+            continue
+        lines.append(f"{t:16s}" + "".join(f"{matrix[t][v]:10d}" for v in labels))
+    lines.append("")
+    lines.append(f"{'case':36s} {'verdict':16s} {'target':7s} {'params':7s} {'held-out e (m)':>21s} "
+                 f"{'excess':>7s} {'s':>6s}  recovery")
+    for r in rows:
+        before, after = r.get("held_out_before"), r.get("held_out_after")
+        ho = f"{before:.5f}->{after:.5f}" if before is not None and after is not None else "-"
+        x = r.get("held_out_excess_reduction")
+        ex = f"{-100 * x:+.0f}%" if x is not None else "-"
+        lines.append(f"{r['case']:36s} {r['verdict']:16s} {str(r['target_ok']):7s} {str(r['recovered']):7s} "
+                     f"{ho:>21s} {ex:>7s} {r['seconds']:6.1f}  {r['recovery']}")
+    lines.append("")
+    for k, v in summarise(rows).items():
+        lines.append(f"{k}: {v if not isinstance(v, float) else round(v, 3)}")
+    return "\n".join(lines)
+
+
+def proof_json(size: str, rows: Sequence[dict[str, Any]], seconds: float) -> dict[str, Any]:
+    labels, matrix = confusion(rows)
+    return {"size": size, "seconds": round(seconds, 1), "summary": summarise(rows),
+            "confusion": {"labels": labels, "matrix": matrix}, "cases": list(rows)}
 
 
 def _frac(a: int, b: int) -> float | None:
