@@ -40,3 +40,21 @@ def test_clean_recordings_stay_at_the_noise_floor(odb, tmp_path):
     for o in loc.objects:
         assert not o.significant and o.rms < 2.0
         assert o.quiet_level is None or o.quiet_level < 2.0
+
+
+@pytest.mark.slow
+def test_a_heavier_block_shows_in_the_force_ratio_not_the_path(odb, tmp_path):
+    engine, truth = _engine(Case("planar", "mass", "large", 1), odb, tmp_path)
+    loc = locate(engine)
+    m0 = odb.mass_properties("steel_block").mass
+    assert loc.force_scale() == pytest.approx(truth.params["mass"] / m0, rel=0.15)
+    assert all(f.significant for f in loc.forces)
+    assert max(o.error["e_t"] for o in loc.objects) < 0.004  # the path is off by millimetres at most
+
+
+@pytest.mark.slow
+def test_a_clock_shift_shows_as_a_start_of_motion_shift(odb, tmp_path):
+    engine, truth = _engine(Case("planar", "latency", "large", 1), odb, tmp_path)
+    loc = locate(engine)
+    shifts = [o.features["moves_obs_s"] - o.features["moves_sim_s"] for o in loc.objects]
+    assert np.median(shifts) == pytest.approx(truth.params["dt"], abs=0.025)
