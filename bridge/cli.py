@@ -131,9 +131,22 @@ def _session(recording_path, odb, args, *, label: str, events=None):
     recording = load_recording(recording_path)
     before = load_world_state(recording.world_path, odb)
     params, telemetry = _scene_setting(args, before, recording.telemetry, odb)
+    scene = None
+    if getattr(args, "scene", None):  # the model bridge diagnose found: extra geometry, poses, values, clock
+        from .diagnosis.scenefile import load_scene_file, scene_setting
+        from .sim.scene import build_scene
+
+        if params is not None:
+            raise BridgeError("give either --params or --scene, not both (a scene file holds its own values)")
+        setting = scene_setting(load_scene_file(args.scene), before, recording.telemetry, odb)
+        if setting.hooks:
+            raise BridgeError("this scene file needs context hooks, which only the diagnosis' replay runs",
+                              source=args.scene)
+        before, params, telemetry = setting.world, setting.params, setting.telemetry
+        scene = build_scene(before, odb, extras=setting.extras)
     progress = Progress(label)
     try:
-        return recording, run_session(before, telemetry, odb, params=params,
+        return recording, run_session(before, telemetry, odb, scene=scene, params=params,
                                       event_period=args.event_period if events else None, on_event=events,
                                       progress=progress)
     finally:
@@ -324,6 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
     p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge fit)")
+    p.add_argument("--scene", default=None, metavar="FILE", help="diagnosed scene file (scene.yaml from bridge diagnose)")
     p = add("demo")
     p.add_argument("--recordings", default=str(REPO_ROOT / "demo" / "recordings"), help="folder of recordings (default: the bundled trials)")
     p.add_argument("--out", default="out/demo", help="where to write inferred states (default: %(default)s)")
