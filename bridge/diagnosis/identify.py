@@ -253,12 +253,12 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
             say(f"friction refitted from {c.effect}'s coefficients: "
                 f"{_fmt({a.target: a.values()['mu'] for a in base_fit.model()})}, rms {fitted[1].rms:.1f}")
         fitted.append(scored)
-        ok = _acceptable(scored, fitted[0], fitted[1], bool(held_out)) is None
+        ok = _acceptable(scored, fitted[0], fitted[1], bool(held_out), world, odb) is None
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
             f"{'' if ok else ' - not confirmed'}")
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
     scored = _score(fitted, tau)
-    verdict, check = _verdict(scored, bool(held_out))
+    verdict, check = _verdict(scored, bool(held_out), world, odb)
     if check:
         notes.append(check)
     return Identification(verdict, tuple(scored), loc, _names(engine, train), _names(engine, held_out), tau,
@@ -331,8 +331,10 @@ def _typical_ratio(model: Sequence[float], simpler: Sequence[float]) -> float:
     return float(np.mean(ratios)) if ratios else 1.0
 
 
-def _acceptable(s: Scored, none: Scored, friction: Scored | None, checked: bool) -> str | None:
+def _acceptable(s: Scored, none: Scored, friction: Scored | None, checked: bool, world, odb) -> str | None:
     """Why `s` is not accepted over the simpler model it extends, or None when it is (see `_verdict`)."""
+    if s.effect not in ("none", "friction") and get_effect(s.effect).negligible(world, odb, s.target, s.params):
+        return f"{s.effect}'s parameters ({_fmt(s.params)}) are too small to matter physically"
     simpler = [none] if s.effect == "friction" or friction is None else [none, friction]
     base = simpler[-1]
     excess = max(base.chi2 - base.n, 0.0)
@@ -344,11 +346,13 @@ def _acceptable(s: Scored, none: Scored, friction: Scored | None, checked: bool)
     return None
 
 
-def _verdict(scored: list[Scored], checked: bool) -> tuple[str, str | None]:
+def _verdict(scored: list[Scored], checked: bool, world, odb) -> tuple[str, str | None]:
     """The best-scoring model that is also worth its parameters in practice and confirmed on held-out data.
 
     Models are nested: `friction` adds the friction coefficients to `none`, every effect adds its own parameters
     to `friction`. A model is accepted over the simpler one it extends when
+    - its own parameters are not all negligible (`Effect.negligible`: e.g. a centre of mass moved by less than
+      a millimetre only soaks up the error of the start poses);
     - its extra parameters remove at least MIN_GAIN of the simpler model's excess chi^2 (chi^2 - n: the part
       above the noise floor), NEAR_NOISE_GAIN when the simpler model is already within NOISE_RMS of the floor;
       BIC alone trusts the noise model, and a residual that is not quite white makes any extra parameter look
@@ -362,7 +366,7 @@ def _verdict(scored: list[Scored], checked: bool) -> tuple[str, str | None]:
     for s in scored:
         if s.effect == "none" or s.score <= 0:
             break
-        why = _acceptable(s, by["none"], by.get("friction"), checked)
+        why = _acceptable(s, by["none"], by.get("friction"), checked, world, odb)
         if why is None:
             return s.effect, ("; ".join(reasons) + f"; {s.effect} is") if reasons else None
         reasons.append(why)

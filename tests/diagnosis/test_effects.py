@@ -95,3 +95,15 @@ def test_a_user_effect_is_one_class(planar_world, odb):
         assert setup.params.external_forces["block"] == (0.2, 0.0, 0.0)
     finally:
         EFFECTS.pop("wind", None)
+
+
+def test_negligible_parameters_are_the_effects_own(planar_world, odb):
+    """A centre of mass moved 0.5 mm is negligible even with a doubled mass (the mass is `mass`'s business);
+    3 mm is not; an effect without declared sizes (an obstacle) never is."""
+    from bridge.diagnosis.effects import get_effect
+
+    com, m = get_effect("com_offset"), odb.mass_properties("steel_block").mass
+    assert com.negligible(planar_world, odb, "block", {"dx": 0.0005, "dy": -0.0003, "mass": 2 * m})
+    assert not com.negligible(planar_world, odb, "block", {"dx": 0.003, "dy": 0.0, "mass": m})
+    assert get_effect("mass").negligible(planar_world, odb, "block", {"mass": 1.03 * m, "spread": 0.0})
+    assert not get_effect("hidden_obstacle").negligible(planar_world, odb, "surface", {"x": 0.0, "y": 0.0})

@@ -30,8 +30,10 @@ from ...world import WorldState
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One parameter: bounds, the value at which the effect does nothing (`null`, where fits start) and a
-    typical size (`scale`: the finite-difference step and the unit of the normalised search space)."""
+    """One parameter: bounds, the value at which the effect does nothing (`null`, where fits start), a
+    typical size (`scale`: the finite-difference step and the unit of the normalised search space) and, when it
+    has one, the departure from null below which it makes no physical difference worth reporting
+    (`negligible`: a fit may still use it to soak up the start poses' error)."""
 
     name: str
     lower: float
@@ -40,6 +42,7 @@ class ParamSpec:
     scale: float
     unit: str = ""
     doc: str = ""
+    negligible: float | None = None
 
     def __post_init__(self) -> None:
         if not (self.lower <= self.null <= self.upper) or not self.scale > 0:
@@ -129,6 +132,13 @@ class Effect:
                  values: Mapping[str, float]) -> dict[str, float]:
         """Derived quantities for the report (e.g. an angle and a direction from slope components)."""
         return {}
+
+    def negligible(self, world: WorldState, odb: ObjectDatabase, target: str, values: Mapping[str, float]) -> bool:
+        """True when every parameter that declares a `negligible` size is within it of its null value (then the
+        effect adds nothing a user would act on; parameters without one, e.g. a mass the effect shares with
+        `mass`, do not count). False when no parameter declares one."""
+        sized = [p for p in self.params(world, odb, target) if p.negligible is not None]
+        return bool(sized) and all(abs(values.get(p.name, p.null) - p.null) < p.negligible for p in sized)
 
     # --- shared helpers -----------------------------------------------------------------------------------------
     def null_values(self, world: WorldState, odb: ObjectDatabase, target: str) -> dict[str, float]:

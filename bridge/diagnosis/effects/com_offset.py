@@ -24,8 +24,8 @@ class ComOffset(Effect):
     def params(self, world, odb, target):
         hx, hy, _ = footprint_half(world, odb, target)
         m = odb.mass_properties(world.objects[target].type).mass
-        return (ParamSpec("dx", -0.6 * hx, 0.6 * hx, 0.0, 0.1 * hx, "m", "object frame"),
-                ParamSpec("dy", -0.6 * hy, 0.6 * hy, 0.0, 0.1 * hy, "m", "object frame"),
+        return (ParamSpec("dx", -0.6 * hx, 0.6 * hx, 0.0, 0.1 * hx, "m", "object frame", negligible=0.001),
+                ParamSpec("dy", -0.6 * hy, 0.6 * hy, 0.0, 0.1 * hy, "m", "object frame", negligible=0.001),
                 ParamSpec("mass", 0.2 * m, 5.0 * m, m, 0.3 * m, "kg", "the object with what moved its centre"))
 
     def contribute(self, world, odb, target, values):

@@ -21,7 +21,7 @@ class Latency(Effect):
         return (world.robot.name,) if world.robot is not None else ()
 
     def params(self, world, odb, target):
-        return (ParamSpec("dt", -0.3, 0.3, 0.0, 0.03, "s", "positive: the robot moved later"),)
+        return (ParamSpec("dt", -0.3, 0.3, 0.0, 0.03, "s", "positive: the robot moved later", negligible=0.005),)
 
     def contribute(self, world, odb, target, values):
         return Contribution(time_shift=values["dt"])

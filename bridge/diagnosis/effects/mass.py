@@ -27,7 +27,7 @@ class Mass(Effect):
 
     def params(self, world, odb, target):
         m = odb.mass_properties(world.objects[target].type).mass
-        return (ParamSpec("mass", 0.2 * m, 5.0 * m, m, 0.3 * m, "kg"),
+        return (ParamSpec("mass", 0.2 * m, 5.0 * m, m, 0.3 * m, "kg", negligible=0.05 * m),
                 ParamSpec("spread", 0.0, 1.5, 1.0, 0.5, "",
                           "where the extra mass sits: 1 spread like the object's own (uniform density), 0 at "
                           "the centre of mass (a compact weight inside: no added rotational inertia)"))

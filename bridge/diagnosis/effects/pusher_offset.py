@@ -59,9 +59,9 @@ class PusherOffset(Effect):
         specs = []
         for j in self._joints(world, odb, target):
             if kinds.get(j) == "prismatic":
-                specs.append(ParamSpec(j, -0.03, 0.03, 0.0, 0.002, "m"))
+                specs.append(ParamSpec(j, -0.03, 0.03, 0.0, 0.002, "m", negligible=0.0005))
             else:
-                specs.append(ParamSpec(j, -0.2, 0.2, 0.0, 0.01, "rad"))
+                specs.append(ParamSpec(j, -0.2, 0.2, 0.0, 0.01, "rad", negligible=0.002))
         return tuple(specs)
 
     def contribute(self, world, odb, target, values):

@@ -67,8 +67,10 @@ class SurfaceTilt(Effect):
         return tuple(dict.fromkeys(s for s in surfaces if s))
 
     def params(self, world, odb, target):
-        return (ParamSpec("slope_x", -0.15, 0.15, 0.0, 0.01, "rad", "downhill component along world x"),
-                ParamSpec("slope_y", -0.15, 0.15, 0.0, 0.01, "rad", "downhill component along world y"),
+        return (ParamSpec("slope_x", -0.15, 0.15, 0.0, 0.01, "rad", "downhill component along world x",
+                          negligible=0.0017),
+                ParamSpec("slope_y", -0.15, 0.15, 0.0, 0.01, "rad", "downhill component along world y",
+                          negligible=0.0017),
                 ParamSpec("dz", -0.01, 0.01, 0.0, 0.001, "m", "height change of the top above the centre"))
 
     def contribute(self, world, odb, target, values):
