@@ -40,7 +40,7 @@ class ProofSettings:
 
 SETTINGS = {
     "small": ProofSettings(4, 1, Options(max_full_fits=4, max_iterations=4)),
-    "full": ProofSettings(8, 2, Options(max_full_fits=4)),
+    "full": ProofSettings(8, 2, Options(max_full_fits=4, max_iterations=4)),
 }
 
 
