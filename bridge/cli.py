@@ -129,6 +129,8 @@ def _session(recording_path, odb, args, *, label: str, events=None):
     from .world import load_world_state
 
     recording = load_recording(recording_path)
+    if getattr(args, "scene", None) and getattr(args, "params", None):
+        raise BridgeError("give either --params or --scene, not both (a scene file holds its own values)")
     before = load_world_state(recording.world_path, odb)
     params, telemetry = _scene_setting(args, before, recording.telemetry, odb)
     scene = None
@@ -136,8 +138,6 @@ def _session(recording_path, odb, args, *, label: str, events=None):
         from .diagnosis.scenefile import load_scene_file, scene_setting
         from .sim.scene import build_scene
 
-        if params is not None:
-            raise BridgeError("give either --params or --scene, not both (a scene file holds its own values)")
         setting = scene_setting(load_scene_file(args.scene), before, recording.telemetry, odb)
         if setting.hooks:
             raise BridgeError("this scene file needs context hooks, which only the diagnosis' replay runs",

@@ -52,3 +52,5 @@ def test_infer_replays_with_a_diagnosed_scene_file(odb, tmp_path, capsys):
     assert stopped < travel - 0.005
     assert main(["infer", str(rec), "--scene", str(tmp_path / "missing.yaml")]) == 1
     assert "missing.yaml" in capsys.readouterr().err
+    assert main(["infer", str(rec), "--scene", str(scene), "--params", str(scene)]) == 1
+    assert "either --params or --scene" in capsys.readouterr().err
