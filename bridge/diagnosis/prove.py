@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import DiagnosisError
 from ..odb import ObjectDatabase
+from ..sim.layout import combined_friction
 from ..world import write_atomic
 from .effects import EFFECTS
 from .identify import Options
@@ -71,10 +72,6 @@ class Recovery:
     text: str
 
 
-def _pair(mu_a: float, mu_b: float) -> float:
-    return 2 * mu_a * mu_b / (mu_a + mu_b)
-
-
 def recovery(truth: Truth, run: DiagnosisRun, odb: ObjectDatabase, world) -> Recovery:
     """Did the diagnosis find the right parameters? Tolerances per effect, stated in the text."""
     w = run.identification.winner
@@ -88,9 +85,9 @@ def recovery(truth: Truth, run: DiagnosisRun, odb: ObjectDatabase, world) -> Rec
         surf = truth.target
         mu_o = mus.get(obj, odb.get(world.objects[obj].type).physics.friction)
         mu_s = mus.get(surf, odb.get(world.objects[surf].type).physics.friction)
-        err = abs(_pair(mu_o, mu_s) - truth.extra["pair_mu"])
+        err = abs(combined_friction(mu_o, mu_s) - truth.extra["pair_mu"])
         tol = 0.25 * truth.extra["pair_mu"]
-        return Recovery(err <= tol, err, "", f"pair mu {_pair(mu_o, mu_s):.3f} vs {truth.extra['pair_mu']:.3f} "
+        return Recovery(err <= tol, err, "", f"pair mu {combined_friction(mu_o, mu_s):.3f} vs {truth.extra['pair_mu']:.3f} "
                                              f"(tolerance 25 %)")
     if e == "mass":
         err = abs(p["mass"] - t["mass"])
@@ -111,7 +108,7 @@ def recovery(truth: Truth, run: DiagnosisRun, odb: ObjectDatabase, world) -> Rec
         mus = {a.target: a.values()["mu"] for a in w.model if a.effect == "friction"}
         obj = next(n for n, o in world.objects.items() if not odb.get(o.type).fixed)
         mu_o = mus.get(obj, odb.get(world.objects[obj].type).physics.friction)
-        pair = _pair(mu_o, p["mu"])
+        pair = combined_friction(mu_o, p["mu"])
         err = abs(pair - t["mu"])
         return Recovery(err <= 0.3 * t["mu"], err, "", f"pair mu inside {pair:.3f} vs {t['mu']:.3f} (30 %)")
     if e == "latency":

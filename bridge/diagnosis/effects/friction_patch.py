@@ -5,8 +5,7 @@ Modelled as a scene extra: a micrometre-thin sheet (`bridge.sim.extras.SurfacePa
 axis-aligned square (centre cx, cy, half size `half`) with its own coefficient `mu`; an object over it rests on
 the sheet, so the pair's coefficient there is 2 mu mu_object / (mu + mu_object), and an object straddling its
 edge feels the two coefficients side by side (the torque a uniform blend would miss). A new scene per value
-(~40 ms). `bridge.sim.hooks.FrictionRegion` is the geometry-free alternative (a blended coefficient rewritten
-in the context) for scenes where rebuilding is too dear; it cannot produce that torque.
+(~40 ms).
 """
 from __future__ import annotations
 
@@ -14,7 +13,7 @@ import numpy as np
 
 from ...odb.geometry import half_extents
 from ...sim.extras import SurfacePatch
-from ...sim.hooks import combined_friction, surface_friction_for
+from ...sim.layout import combined_friction, surface_friction_for
 from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of, supported_by, surface_top
 
 RAISED = 1.0e-6  # m: the sheet carries what stands on it (objects sink ~0.6 um), its edge is no step
