@@ -5,8 +5,9 @@ import argparse
 import json
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 from .errors import BridgeError
 
@@ -114,39 +115,48 @@ class Progress:
             print(file=sys.stderr)
 
 
-def _scene_setting(args, world, telemetry, odb):
-    """SceneParams and telemetry from --params (a fitted parameter file), or (None, telemetry) without it."""
-    if not getattr(args, "params", None):
-        return None, telemetry
-    from .fit.params import load_param_file, scene_setting
+@dataclass(frozen=True)
+class _Setting:
+    world: Any
+    telemetry: Any
+    params: Any = None  # SceneParams
+    extras: tuple = ()
 
-    return scene_setting(load_param_file(args.params), world, telemetry, odb)
+
+def _replay_setting(args, world, telemetry, odb) -> _Setting:
+    """What a replay of one recording runs with: the diagnosed scene file (--scene: extra geometry, corrected
+    poses, values, clock), then a fitted parameter file (--params) on top."""
+    setting = _Setting(world, telemetry)
+    if getattr(args, "scene", None):
+        from .diagnosis.scenefile import load_scene_file, scene_setting
+
+        found = scene_setting(load_scene_file(args.scene), world, telemetry, odb)
+        if found.hooks:
+            raise BridgeError("this scene file needs context hooks, which only the diagnosis' replay runs",
+                              source=args.scene)
+        setting = _Setting(found.world, found.telemetry, found.params, tuple(found.extras))
+    if getattr(args, "params", None):
+        from .fit.params import load_param_file, scene_setting
+
+        params, telemetry = scene_setting(load_param_file(args.params), setting.world, setting.telemetry, odb,
+                                          base=setting.params)
+        setting = _Setting(setting.world, telemetry, params, setting.extras)
+    return setting
 
 
 def _session(recording_path, odb, args, *, label: str, events=None):
     from .recording.recording import load_recording
+    from .sim.scene import build_scene
     from .teleop import run_session
     from .world import load_world_state
 
     recording = load_recording(recording_path)
-    if getattr(args, "scene", None) and getattr(args, "params", None):
-        raise BridgeError("give either --params or --scene, not both (a scene file holds its own values)")
     before = load_world_state(recording.world_path, odb)
-    params, telemetry = _scene_setting(args, before, recording.telemetry, odb)
-    scene = None
-    if getattr(args, "scene", None):  # the model bridge diagnose found: extra geometry, poses, values, clock
-        from .diagnosis.scenefile import load_scene_file, scene_setting
-        from .sim.scene import build_scene
-
-        setting = scene_setting(load_scene_file(args.scene), before, recording.telemetry, odb)
-        if setting.hooks:
-            raise BridgeError("this scene file needs context hooks, which only the diagnosis' replay runs",
-                              source=args.scene)
-        before, params, telemetry = setting.world, setting.params, setting.telemetry
-        scene = build_scene(before, odb, extras=setting.extras)
+    setting = _replay_setting(args, before, recording.telemetry, odb)
+    scene = build_scene(setting.world, odb, extras=setting.extras) if setting.extras else None
     progress = Progress(label)
     try:
-        return recording, run_session(before, telemetry, odb, scene=scene, params=params,
+        return recording, run_session(setting.world, setting.telemetry, odb, scene=scene, params=setting.params,
                                       event_period=args.event_period if events else None, on_event=events,
                                       progress=progress)
     finally:
@@ -217,8 +227,9 @@ def cmd_view(args) -> int:
     recording = load_recording(args.recording)
     world = load_world_state(recording.world_path, odb)
     out = Path(args.out or Path(args.recording) / "replay.html")
-    params, telemetry = _scene_setting(args, world, recording.telemetry, odb)
-    write_replay_html(world, telemetry, odb, out, observations=recording.observations, params=params)
+    setting = _replay_setting(args, world, recording.telemetry, odb)
+    write_replay_html(setting.world, setting.telemetry, odb, out, observations=recording.observations,
+                      params=setting.params, extras=setting.extras)
     print(f"wrote {out} (open it in a browser)")
     return 0
 
@@ -233,6 +244,10 @@ def cmd_fit(args) -> int:
 
     odb = _odb(args)
     trials = load_trials(args.recordings, odb, max_duration=args.max_duration)
+    if args.scene:  # fit on top of the model bridge diagnose found
+        from .diagnosis.scenefile import load_scene_file, trials_under
+
+        trials = trials_under(load_scene_file(args.scene), trials, odb)
     spec = load_param_file(args.params) if args.params else default_spec(trials, odb)
     out = Path(args.out)
     print(f"bridge fit: {len(trials)} trial(s); free parameters: {', '.join(spec.names) or 'none'}", file=sys.stderr)
@@ -297,6 +312,12 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
 }
 
 
+def _model_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scene", default=None, metavar="FILE", help="diagnosed scene file (scene.yaml from bridge diagnose)")
+    p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge "
+                   "fit); with --scene, its values go on top of the scene's")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="bridge", description="Keep a robot's symbolic world state true while a person teleoperates it: "
@@ -336,16 +357,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: beside --world-out)")
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
-    p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge fit)")
-    p.add_argument("--scene", default=None, metavar="FILE", help="diagnosed scene file (scene.yaml from bridge diagnose)")
+    _model_args(p)
     p = add("demo")
     p.add_argument("--recordings", default=str(REPO_ROOT / "demo" / "recordings"), help="folder of recordings (default: the bundled trials)")
     p.add_argument("--out", default="out/demo", help="where to write inferred states (default: %(default)s)")
-    p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge fit)")
+    _model_args(p)
     p = add("view")
     p.add_argument("recording", help="recording folder")
     p.add_argument("--out", default=None, help="HTML file (default: RECORDING/replay.html)")
-    p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge fit)")
+    _model_args(p)
     p = add("act")
     p.add_argument("world", help="world state before the action")
     p.add_argument("action", help="action template, e.g. push_over")
@@ -358,6 +378,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "figures) and checkpoint.json")
     p.add_argument("--params", default=None, metavar="FILE", help="parameter file saying what to fit (default: "
                    "the friction of the moved objects and of what they touch)")
+    p.add_argument("--scene", default=None, metavar="FILE", help="fit on top of a diagnosed scene file (scene.yaml "
+                   "from bridge diagnose: its extra geometry, corrections and values stay fixed)")
     p.add_argument("--optimizer", choices=("cmaes", "es"), default="cmaes", help="default: %(default)s")
     p.add_argument("--generations", type=int, default=30, help="at most this many (default %(default)s; stops "
                    "earlier when the best error stops improving)")

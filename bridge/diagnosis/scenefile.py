@@ -11,18 +11,20 @@
 `load_scene_file(path)` reads and checks the file's shape (effect names, parameter names, numbers);
 `SceneFile.resolve(world, odb)` checks targets against a world and returns the `Setup`: SceneParams, a
 telemetry transform, scene extras, context hooks and world pose overrides. `scene_setting` applies it to one
-recording: the world and telemetry to replay, with the scene values, extras and hooks.
+recording: the world and telemetry to replay, with the scene values, extras and hooks; `trials_under` applies it
+to fit trials.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import yaml
 
 from ..errors import DiagnosisError
+from ..fit.trials import Trial
 from ..odb import ObjectDatabase
 from ..recording.telemetry import Telemetry
 from ..world import WorldState, write_atomic
@@ -154,3 +156,18 @@ def scene_setting(scene: SceneFile, world: WorldState, telemetry: Telemetry, odb
     """The scene file applied to one recording (its world state before and its telemetry)."""
     setup = scene.resolve(world, odb)
     return SceneSetting(setup.world(world), setup.params, setup.telemetry.apply(telemetry), setup.extras, setup.hooks)
+
+
+def trials_under(scene: SceneFile, trials: Sequence[Trial], odb: ObjectDatabase) -> list[Trial]:
+    """The trials as the scene file has them (for `bridge fit --scene`): its world corrections, telemetry,
+    extra geometry and values, on top of which the fit's own parameters go."""
+    out = []
+    for trial in trials:
+        setting = scene_setting(scene, trial.world, trial.telemetry, odb)
+        if setting.hooks:
+            raise DiagnosisError("this scene file needs context hooks, which only the diagnosis' replay runs",
+                                 source=scene.source)
+        out.append(replace(trial, world=setting.world, telemetry=setting.telemetry, extras=tuple(setting.extras),
+                           base_params=setting.params))
+    return out
+

@@ -121,14 +121,14 @@ class ParameterSpec:
 
 
 def apply_params(spec: ParameterSpec, values: Sequence[float] | None, world: WorldState, telemetry: Telemetry,
-                 odb: ObjectDatabase) -> tuple[SceneParams, Telemetry]:
-    """Scene parameters and telemetry for one trial: fixed entries, then free ones at `values` (parameter
-    units, in `spec.names` order; None: their start values)."""
+                 odb: ObjectDatabase, base: SceneParams | None = None) -> tuple[SceneParams, Telemetry]:
+    """Scene parameters and telemetry for one trial: `base` (a diagnosed scene file's values), then fixed
+    entries, then free ones at `values` (parameter units, in `spec.names` order; None: their start values)."""
     free = spec.free
     values = spec.start_values() if values is None else np.asarray(values, dtype=float)
     if len(values) != len(free):
         raise FitError(f"{len(values)} values for the {len(free)} free parameters {', '.join(spec.names)}")
-    setting = Setting(world, SceneParams(), telemetry, odb)
+    setting = Setting(world, base or SceneParams(), telemetry, odb)
     free_values = iter(values)
     for p in spec.entries:
         value = p.value if not p.free else float(next(free_values))
@@ -138,15 +138,16 @@ def apply_params(spec: ParameterSpec, values: Sequence[float] | None, world: Wor
     return setting.params, setting.telemetry
 
 
-def scene_setting(spec: ParameterSpec, world: WorldState, telemetry: Telemetry,
-                  odb: ObjectDatabase) -> tuple[SceneParams, Telemetry]:
-    """For `bridge infer`/`view`/`demo --params`: the file's values (a free entry's start; no start is an error)."""
+def scene_setting(spec: ParameterSpec, world: WorldState, telemetry: Telemetry, odb: ObjectDatabase,
+                  base: SceneParams | None = None) -> tuple[SceneParams, Telemetry]:
+    """For `bridge infer`/`view`/`demo --params`: the file's values (a free entry's start; no start is an error),
+    on top of `base` (a diagnosed scene file's values)."""
     missing = [p.name for p in spec.free if p.start is None]
     if missing:
         raise FitError(f"parameter {missing[0]} has bounds but no value; pass a fitted parameter file (the "
                        "params.yaml bridge fit writes) or give each entry a value", source=spec.source)
     check_targets(spec, [world], odb)
-    return apply_params(spec, None, world, telemetry, odb)
+    return apply_params(spec, None, world, telemetry, odb, base=base)
 
 
 def check_targets(spec: ParameterSpec, worlds: Sequence[WorldState], odb: ObjectDatabase) -> None:

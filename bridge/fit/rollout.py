@@ -77,9 +77,9 @@ def simulate_trial(trial: Trial, spec: ParameterSpec | None, x: Sequence[float] 
                    config: SimConfig = SimConfig(), sample_rate: float = SAMPLE_RATE) -> ReplayResult:
     """Replay one trial with the parameters applied, in this process's cached scene for its structure."""
     if spec is None:
-        params, telemetry = None, trial.telemetry
+        params, telemetry = trial.base_params, trial.telemetry
     else:
-        params, telemetry = apply_params(spec, x, trial.world, trial.telemetry, odb)
+        params, telemetry = apply_params(spec, x, trial.world, trial.telemetry, odb, base=trial.base_params)
     scene = scene_for(trial, odb, config)
     options = ReplayOptions(sample_rate=sample_rate, settle=trial.settle)
     return replay(scene, telemetry, world=trial.world, params=params, options=options)
@@ -92,7 +92,7 @@ def scene_for(trial: Trial, odb: ObjectDatabase, config: SimConfig = SimConfig()
     if scene is None:
         if len(_SCENES) >= _CACHE_SIZE:
             _SCENES.pop(next(iter(_SCENES)))
-        scene = _SCENES[key] = build_scene(trial.world, odb, config)
+        scene = _SCENES[key] = build_scene(trial.world, odb, config, extras=trial.extras)
     return scene
 
 
@@ -100,7 +100,7 @@ def _structure(trial: Trial, odb: ObjectDatabase, config: SimConfig) -> tuple:
     world = trial.world
     objects = tuple((n, o.type, o.pose if odb.get(o.type).fixed else None) for n, o in world.objects.items())
     robot = None if world.robot is None else (world.robot.name, world.robot.type, world.robot.base_pose)
-    return (str(odb.root), id(odb), objects, robot, config)
+    return (str(odb.root), id(odb), objects, robot, config, repr(trial.extras))
 
 
 # --- comparison ----------------------------------------------------------------------------------------------
@@ -163,7 +163,8 @@ FRICTION_BOUNDS = (0.05, 1.2)
 
 def default_spec(trials: Sequence[Trial], odb: ObjectDatabase, config: SimConfig = SimConfig()) -> ParameterSpec:
     """What `bridge fit` fits without --params: the friction of every object observed to move and of what it
-    touches at the start (its support, neighbours), each starting at its object-database value.
+    touches at the start (its support, neighbours), each starting at its object-database value (or a diagnosed
+    scene file's, under `bridge fit --scene`).
 
     Contacts are read from each trial's initial state (no simulation), robot links and the floor left out.
     """
@@ -181,7 +182,10 @@ def default_spec(trials: Sequence[Trial], odb: ObjectDatabase, config: SimConfig
         touched = [c.other(name) for name in moved for c in contacts if name in (c.body_a, c.body_b)]
         for name in [*moved, *touched]:
             if name in trial.world.objects and not (robot and name.startswith(robot + "/")):
-                names.setdefault(name, odb.get(trial.world.objects[name].type).physics.friction)
+                base = trial.base_params.objects.get(name) if trial.base_params else None
+                start = base.friction if base is not None and base.friction is not None else None
+                names.setdefault(name, start if start is not None else
+                                 odb.get(trial.world.objects[name].type).physics.friction)
     if not names:
         raise FitError("no observed object moves in the trials, so there is no friction to fit; pass --params")
     lo, hi = FRICTION_BOUNDS

@@ -19,6 +19,7 @@ from ..odb import ObjectDatabase
 from ..recording.forces import ObservedForce
 from ..recording.observations import ObservedPoses
 from ..recording.telemetry import Telemetry
+from ..sim.scene import SceneParams
 from ..world import WorldState
 
 H5_SUFFIXES = (".h5", ".hdf5")
@@ -36,6 +37,8 @@ class Trial:
     source: Path
     notes: tuple[str, ...] = ()
     force: ObservedForce | None = None  # the robot's force sensor, when recorded
+    extras: tuple = ()  # scene extras (sim.extras) of a diagnosed scene file: geometry the world state lacks
+    base_params: SceneParams | None = None  # a diagnosed scene file's values; fitted parameters go on top
 
     @property
     def settle(self) -> float:

@@ -6,6 +6,7 @@ object was observed (AprilTags, motion capture) a see-through copy of it stands.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Sequence
 
 from pydrake.geometry import Meshcat, Rgba
 
@@ -28,11 +29,12 @@ def write_replay_html(
     *,
     observations: ObservedPoses | None = None,
     params: SceneParams | None = None,
+    extras: Sequence = (),
     config: SimConfig = SimConfig(),
 ) -> ReplayResult:
     """Replay with a Meshcat recording attached and save it as one HTML file."""
     meshcat = Meshcat()  # serves on localhost only while we record
-    scene = build_scene(world, odb, config, meshcat=meshcat)
+    scene = build_scene(world, odb, config, extras=extras, meshcat=meshcat)
     visualizer = scene.diagram.GetSubsystemByName(
         next(s.get_name() for s in scene.diagram.GetSystems() if type(s).__name__.startswith("MeshcatVisualizer")))
     visualizer.StartRecording(set_transforms_while_recording=False)

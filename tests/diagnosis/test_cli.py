@@ -52,5 +52,38 @@ def test_infer_replays_with_a_diagnosed_scene_file(odb, tmp_path, capsys):
     assert stopped < travel - 0.005
     assert main(["infer", str(rec), "--scene", str(tmp_path / "missing.yaml")]) == 1
     assert "missing.yaml" in capsys.readouterr().err
-    assert main(["infer", str(rec), "--scene", str(scene), "--params", str(scene)]) == 1
-    assert "either --params or --scene" in capsys.readouterr().err
+    # a fitted parameter file goes on top of the scene file: a sideways force drifts the stopped block
+    params = tmp_path / "params.yaml"
+    params.write_text("params:\n  - {kind: force_y, target: block, value: 5.0}\n")
+    pushed = tmp_path / "pushed.yaml"
+    assert main(["infer", str(rec), "--scene", str(scene), "--params", str(params), "--world-out", str(pushed)]) == 0
+    assert load_world_state(pushed, odb).objects["block"].pose.xyz[1] > x_blocked[1] + 0.005
+
+
+@pytest.mark.slow
+def test_fit_runs_on_top_of_a_diagnosed_scene_file(odb, tmp_path, capsys):
+    """`bridge fit --scene`: the scene file's model (here the recorder's clock shift) stays in every replay of the
+    fit, so recordings made with that shift start (and end) far closer to the observations than without it."""
+    import yaml
+
+    paths, truth = generate_case(Case("planar", "latency", "large", 1), odb, tmp_path / "rec", 2)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(yaml.safe_dump({"format": 1, "effects": [
+        {"effect": "latency", "target": truth.target, "params": {k: float(v) for k, v in truth.params.items()}}]}))
+    errors = {}
+    for name, extra in (("plain", []), ("scene", ["--scene", str(scene)])):
+        out = tmp_path / name
+        argv = ["fit", *map(str, paths), *extra, "--executor", "serial", "--generations", "1", "--popsize", "2",
+                "--hold-out", "0", "--out", str(out)]
+        assert main(argv) == 0, capsys.readouterr().err
+        data = json.loads((out / "fit.json").read_text())
+        errors[name] = (data["before"]["e"], data["after"]["e"])
+    assert errors["scene"][0] < 0.5 * errors["plain"][0]
+    assert errors["scene"][1] < 0.5 * errors["plain"][1]
+    capsys.readouterr()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump({"format": 1, "effects": [{"effect": "com_offset", "target": "tabel",
+                                                               "params": {"dx": 0.01, "dy": 0.0}}]}))
+    assert main(["fit", *map(str, paths), "--scene", str(bad), "--out", str(tmp_path / "bad")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "tabel" in err and "bad.yaml" in err and err.count("\n") == 0
