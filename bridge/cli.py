@@ -5,9 +5,8 @@ import argparse
 import json
 import os
 import sys
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 from .errors import BridgeError
 
@@ -115,32 +114,22 @@ class Progress:
             print(file=sys.stderr)
 
 
-@dataclass(frozen=True)
-class _Setting:
-    world: Any
-    telemetry: Any
-    params: Any = None  # SceneParams
-    extras: tuple = ()
+def _replay_setting(args, world, telemetry, odb):
+    """What a replay of one recording runs with (a `SceneSetting`): the diagnosed scene file (--scene: extra
+    geometry, corrected poses, values, clock), then a fitted parameter file (--params) on top."""
+    from dataclasses import replace
 
+    from .diagnosis.scenefile import SceneSetting, load_scene_file, replay_setting
 
-def _replay_setting(args, world, telemetry, odb) -> _Setting:
-    """What a replay of one recording runs with: the diagnosed scene file (--scene: extra geometry, corrected
-    poses, values, clock), then a fitted parameter file (--params) on top."""
-    setting = _Setting(world, telemetry)
+    setting = SceneSetting(world, None, telemetry, (), ())
     if getattr(args, "scene", None):
-        from .diagnosis.scenefile import load_scene_file, scene_setting
-
-        found = scene_setting(load_scene_file(args.scene), world, telemetry, odb)
-        if found.hooks:
-            raise BridgeError("this scene file needs context hooks, which only the diagnosis' replay runs",
-                              source=args.scene)
-        setting = _Setting(found.world, found.telemetry, found.params, tuple(found.extras))
+        setting = replay_setting(load_scene_file(args.scene), world, telemetry, odb)
     if getattr(args, "params", None):
         from .fit.params import load_param_file, scene_setting
 
         params, telemetry = scene_setting(load_param_file(args.params), setting.world, setting.telemetry, odb,
                                           base=setting.params)
-        setting = _Setting(setting.world, telemetry, params, setting.extras)
+        setting = replace(setting, params=params, telemetry=telemetry)
     return setting
 
 

@@ -158,16 +158,22 @@ def scene_setting(scene: SceneFile, world: WorldState, telemetry: Telemetry, odb
     return SceneSetting(setup.world(world), setup.params, setup.telemetry.apply(telemetry), setup.extras, setup.hooks)
 
 
+def replay_setting(scene: SceneFile, world: WorldState, telemetry: Telemetry, odb: ObjectDatabase) -> SceneSetting:
+    """`scene_setting` for the ordinary replay (`bridge infer`, `view`, `demo`, `fit`), which runs no context
+    hooks: a scene file that needs them is refused."""
+    setting = scene_setting(scene, world, telemetry, odb)
+    if setting.hooks:
+        raise DiagnosisError("this scene file needs context hooks, which only the diagnosis' replay runs",
+                             source=scene.source)
+    return setting
+
+
 def trials_under(scene: SceneFile, trials: Sequence[Trial], odb: ObjectDatabase) -> list[Trial]:
     """The trials as the scene file has them (for `bridge fit --scene`): its world corrections, telemetry,
     extra geometry and values, on top of which the fit's own parameters go."""
     out = []
     for trial in trials:
-        setting = scene_setting(scene, trial.world, trial.telemetry, odb)
-        if setting.hooks:
-            raise DiagnosisError("this scene file needs context hooks, which only the diagnosis' replay runs",
-                                 source=scene.source)
+        setting = replay_setting(scene, trial.world, trial.telemetry, odb)
         out.append(replace(trial, world=setting.world, telemetry=setting.telemetry, extras=tuple(setting.extras),
                            base_params=setting.params))
     return out
-
