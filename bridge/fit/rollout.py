@@ -182,10 +182,9 @@ def default_spec(trials: Sequence[Trial], odb: ObjectDatabase, config: SimConfig
         touched = [c.other(name) for name in moved for c in contacts if name in (c.body_a, c.body_b)]
         for name in [*moved, *touched]:
             if name in trial.world.objects and not (robot and name.startswith(robot + "/")):
-                base = trial.base_params.objects.get(name) if trial.base_params else None
-                start = base.friction if base is not None and base.friction is not None else None
-                names.setdefault(name, start if start is not None else
-                                 odb.get(trial.world.objects[name].type).physics.friction)
+                scene_value = trial.base_params.objects.get(name) if trial.base_params else None
+                mu = scene_value.friction if scene_value else None
+                names.setdefault(name, mu if mu is not None else odb.get(trial.world.objects[name].type).physics.friction)
     if not names:
         raise FitError("no observed object moves in the trials, so there is no friction to fit; pass --params")
     lo, hi = FRICTION_BOUNDS

@@ -107,3 +107,36 @@ def test_negligible_parameters_are_the_effects_own(planar_world, odb):
     assert not com.negligible(planar_world, odb, "block", {"dx": 0.003, "dy": 0.0, "mass": m})
     assert get_effect("mass").negligible(planar_world, odb, "block", {"mass": 1.03 * m, "spread": 0.0})
     assert not get_effect("hidden_obstacle").negligible(planar_world, odb, "surface", {"x": 0.0, "y": 0.0})
+
+
+def test_the_ordinary_replay_refuses_a_scene_file_that_needs_context_hooks(planar_world, odb):
+    """A user's effect may change the running context (`Contribution.hooks`); only the diagnosis' replay runs
+    those, so `infer`/`view`/`demo`/`fit --scene` say so, naming the file, instead of silently dropping them."""
+    import numpy as np
+
+    from bridge.diagnosis.effects.base import Contribution, ParamSpec
+    from bridge.diagnosis.scenefile import SceneFile, replay_setting
+    from bridge.recording.telemetry import Telemetry
+
+    class Gust(Effect):
+        name = "gust"
+        summary, mechanism, signature_text = "a gust now and then", "context hook", "sudden drift"
+
+        def targets(self, world, odb, observed):
+            return tuple(observed)
+
+        def params(self, world, odb, target):
+            return (ParamSpec("f", 0.0, 1.0, 0.0, 0.1, "N"),)
+
+        def contribute(self, world, odb, target, values):
+            return Contribution(hooks=(object(),))
+
+    telemetry = Telemetry(np.array([0.0, 1.0]), ("pusher_x", "pusher_y"), np.zeros((2, 2)))
+    try:
+        register_effect(Gust())
+        scene = SceneFile((Applied.of("gust", "block", {"f": 0.5}),), source="gusty.yaml")
+        with pytest.raises(DiagnosisError, match="context hooks") as raised:
+            replay_setting(scene, planar_world, telemetry, odb)
+        assert "gusty.yaml" in str(raised.value)
+    finally:
+        EFFECTS.pop("gust", None)
