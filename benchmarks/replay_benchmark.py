@@ -17,7 +17,7 @@ from bridge.planning.problem import problem_text
 from bridge.recording.recording import load_recording
 from bridge.sim.scene import SimConfig
 from bridge.teleop import infer_recording
-from bridge.world import write_atomic
+from bridge.files import write_atomic
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER_RTF = 2.2

@@ -154,7 +154,8 @@ def _session(recording_path, odb, args, *, label: str, events=None):
 
 def _write_outputs(session, odb, args, world_out: Path, problem_out: Path | None) -> None:
     from .planning.problem import problem_text
-    from .world import save_world_state, write_atomic
+    from .files import write_atomic
+    from .world import save_world_state
 
     save_world_state(session.inference.world, world_out)
     if problem_out is not None:

@@ -16,18 +16,14 @@ world-state file is never half-written.
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-import yaml
-
 from .errors import BridgeError, WorldStateError
+from .files import dump_yaml, read_yaml, write_atomic
 from .names import NameMap, build_name_map
 from .odb import ObjectDatabase
-from .odb.loader import read_yaml
 from .values import Fact, Pose
 
 WORLD_KEYS = {"name", "objects", "robot", "facts", "goal"}
@@ -230,22 +226,5 @@ def world_to_dict(world: WorldState) -> dict[str, Any]:
     return data
 
 
-def write_atomic(path: str | Path, text: str) -> None:
-    """Write to a temp file in the same folder, then rename: readers see the old file or the new one, never half."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def save_world_state(world: WorldState, path: str | Path) -> None:
-    write_atomic(path, "# bridge world state\n" + yaml.safe_dump(world_to_dict(world), sort_keys=False, default_flow_style=None, width=120))
+    write_atomic(path, "# bridge world state\n" + dump_yaml(world_to_dict(world)), WorldStateError)

@@ -42,7 +42,7 @@ def test_save_is_atomic(odb, tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", broken_replace)
-    with pytest.raises(OSError):
+    with pytest.raises(WorldStateError, match="w.yaml: cannot write file: disk full"):
         save_world_state(world, out)
     assert out.read_text() == "old content\n"
     assert [p.name for p in tmp_path.iterdir()] == ["w.yaml"]  # no temp file left behind

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import DiagnosisError
 from ..odb import ObjectDatabase
 from ..sim.layout import combined_friction
-from ..world import write_atomic
+from ..files import write_atomic
 from .effects import EFFECTS
 from .identify import Options
 from .pipeline import DiagnosisRun, run_diagnosis

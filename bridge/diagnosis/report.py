@@ -8,7 +8,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..world import write_atomic
+from ..files import write_atomic
 from .identify import Identification, _error_json
 from .locate import Localisation, LocatedObject
 

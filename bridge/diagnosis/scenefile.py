@@ -27,7 +27,8 @@ from ..errors import DiagnosisError
 from ..fit.trials import Trial
 from ..odb import ObjectDatabase
 from ..recording.telemetry import Telemetry
-from ..world import WorldState, write_atomic
+from ..files import write_atomic
+from ..world import WorldState
 from .effects import EFFECTS, Applied, get_effect
 from .simulation import Setup, resolve
 
@@ -76,7 +77,7 @@ def _valid_targets(effect, world: WorldState, odb: ObjectDatabase) -> list[str]:
 
 
 def load_scene_file(path: str | Path) -> SceneFile:
-    from ..odb.loader import read_yaml
+    from ..files import read_yaml
 
     path = Path(path)
     return parse_scene(read_yaml(path, "scene file", DiagnosisError), str(path))

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import FitError
 from ..odb import ObjectDatabase
 from ..sim.scene import SimConfig
-from ..world import write_atomic
+from ..files import write_atomic
 from .error import DEFAULT_C, PoseError
 from .executors import FitExecutor, make_executor
 from .optimizers import GenerationRecord, make_optimizer, restore_optimizer

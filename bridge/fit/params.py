@@ -27,7 +27,8 @@ from ..errors import FitError
 from ..odb import ObjectDatabase
 from ..recording.telemetry import Telemetry
 from ..sim.scene import SceneParams
-from ..world import WorldState, write_atomic
+from ..files import write_atomic
+from ..world import WorldState
 from .kinds import PARAMETER_KINDS, ParameterKind, Setting, register_kind
 
 SCALES = ("linear", "log")
@@ -178,7 +179,7 @@ def _valid_targets(kind: ParameterKind, worlds: Sequence[WorldState], odb: Objec
 # --- reading and writing -------------------------------------------------------------------------------------
 def load_param_file(path: str | Path) -> ParameterSpec:
     """Read and check a parameter file; every problem names the file and the entry."""
-    from ..odb.loader import read_yaml
+    from ..files import read_yaml
 
     path = Path(path)
     return parse_params(read_yaml(path, "parameter file", FitError), str(path))

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..odb import ObjectDatabase
 from ..sim.scene import SimConfig
-from ..world import write_atomic
+from ..files import write_atomic
 from .error import PoseError
 from .fit import FitResult
 from .params import save_param_file

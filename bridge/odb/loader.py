@@ -26,16 +26,14 @@ import hashlib
 import importlib
 import importlib.util
 import os
-import re
 import sys
 import types as pytypes
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-import yaml
-
 from ..errors import ObjectDatabaseError
+from ..files import read_yaml
 from ..values import is_identifier
 from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl, RobotSpec, SIERef
 
@@ -54,39 +52,6 @@ class _RawType:
     name: str
     body: Mapping[str, Any]
     source: Path
-
-
-class _Yaml12Loader(yaml.SafeLoader):
-    """YAML 1.2 booleans: only true/false. In YAML 1.1 the predicate name `on` would read as True."""
-
-
-_Yaml12Loader.yaml_implicit_resolvers = {
-    key: [(tag, regexp) for tag, regexp in resolvers if tag != "tag:yaml.org,2002:bool"]
-    for key, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
-_Yaml12Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
-
-
-def load_yaml_text(text: str) -> Any:
-    return yaml.load(text, Loader=_Yaml12Loader)
-
-
-def read_yaml(path: Path, what: str, error: type[Exception] = ObjectDatabaseError) -> Any:
-    """Parse one YAML file; a syntax error names the file and line."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise error(f"{what} not found", source=str(path)) from None
-    except OSError as exc:
-        raise error(f"cannot read {what}: {exc.strerror}", source=str(path)) from None
-    try:
-        return load_yaml_text(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise error(f"YAML syntax error: {problem}", source=str(path), field=where) from None
 
 
 def dataset_roots_from_env(names: set[str], repo_root: Path | None) -> dict[str, Path]:
@@ -116,7 +81,7 @@ class _Reader:
             raise ObjectDatabaseError("no 'types' folder with object type YAML files", source=str(self.root))
         raw: dict[str, _RawType] = {}
         for path in sorted(folder.rglob("*.yaml")):
-            data = read_yaml(path, "object type file")
+            data = read_yaml(path, "object type file", ObjectDatabaseError)
             if data is None:
                 continue
             if not isinstance(data, dict):

@@ -23,7 +23,8 @@ from ..errors import PddlError
 from ..names import NameMap, build_name_map, to_identifier
 from ..odb import ObjectDatabase
 from ..values import Fact
-from ..world import WorldState, write_atomic
+from ..files import write_atomic
+from ..world import WorldState
 from .domain import DEFAULT_DOMAIN_NAME, build_domain
 from .formulas import FormulaChecker, map_terms
 from .parsing import KEYWORDS, parse_goal, parse_problem, relocated

@@ -28,7 +28,7 @@ from pddl.logic.terms import Variable
 from ..errors import PddlError
 from ..odb import ObjectDatabase
 from ..odb.database import REPO_ROOT
-from ..odb.loader import read_yaml
+from ..files import read_yaml
 from ..values import is_identifier
 from .formulas import FormulaChecker, expand_requirements, used_requirements, variable_type
 from .parsing import KEYWORDS, SUPPORTED_REQUIREMENTS, parse_action, relocated

@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import RecordingError
-from .telemetry import first_row, parse_number, read_text, skip_row, write_text_atomic
+from ..files import write_atomic
+from .telemetry import first_row, parse_number, read_text, skip_row
 
 COLUMNS = ("t", "fx", "fy", "fz")
 
@@ -85,4 +86,4 @@ def save_force_csv(path: str | os.PathLike[str], observed: ObservedForce) -> Non
     writer.writerow(COLUMNS)
     for t, f in zip(observed.times.tolist(), observed.force.tolist()):
         writer.writerow([repr(t), *map(repr, f)])
-    write_text_atomic(path, buffer.getvalue())
+    write_atomic(path, buffer.getvalue(), RecordingError)

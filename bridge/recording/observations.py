@@ -16,8 +16,9 @@ from typing import Collection, Iterator
 import numpy as np
 
 from ..errors import RecordingError
+from ..files import write_atomic
 from ..values import Pose
-from .telemetry import first_row, parse_number, read_text, skip_row, write_text_atomic
+from .telemetry import first_row, parse_number, read_text, skip_row
 
 COLUMNS = ("t", "object", "x", "y", "z", "qw", "qx", "qy", "qz")
 QUAT_TOLERANCE = 1e-3  # how far a quaternion's norm may be from 1 before it is an error rather than rounding
@@ -205,7 +206,7 @@ def save_observations_csv(path: str | os.PathLike[str], observed: ObservedPoses)
     for track in observed.tracks:
         for t, pose in zip(track.times.tolist(), track.poses):
             writer.writerow([repr(t), track.object, *map(repr, pose.xyz), *map(repr, pose.quat)])
-    write_text_atomic(path, buffer.getvalue())
+    write_atomic(path, buffer.getvalue(), RecordingError)
 
 
 def _check_header(header: list[str], line: int, src: str) -> dict[str, int]:

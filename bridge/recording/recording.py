@@ -13,9 +13,10 @@ from typing import Any, Mapping
 import yaml
 
 from ..errors import RecordingError
+from ..files import write_atomic
 from .forces import ObservedForce, load_force_csv, save_force_csv
 from .observations import ObservedPoses, load_observations_csv, save_observations_csv
-from .telemetry import Telemetry, load_telemetry, read_text, save_telemetry_csv, write_text_atomic
+from .telemetry import Telemetry, load_telemetry, read_text, save_telemetry_csv
 
 RECORDING_FILE = "recording.yaml"
 WORLD_FILE = "world.yaml"
@@ -113,13 +114,13 @@ def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str]
     if force is not None:
         meta["force"] = FORCE_FILE
     ordered = {key: meta[key] for key in FIELDS if key in meta}
-    write_text_atomic(folder / WORLD_FILE, world_text)
+    write_atomic(folder / WORLD_FILE, world_text, RecordingError)
     save_telemetry_csv(folder / TELEMETRY_FILE, telemetry)
     if observations is not None:
         save_observations_csv(folder / OBSERVATIONS_FILE, observations)
     if force is not None:
         save_force_csv(folder / FORCE_FILE, force)
-    write_text_atomic(folder / RECORDING_FILE, yaml.safe_dump(ordered, sort_keys=False, allow_unicode=True))
+    write_atomic(folder / RECORDING_FILE, yaml.safe_dump(ordered, sort_keys=False, allow_unicode=True), RecordingError)
     return load_recording(folder)
 
 

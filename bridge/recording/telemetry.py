@@ -9,8 +9,6 @@ import csv
 import io
 import math
 import os
-import tempfile
-from contextlib import suppress
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Mapping, NamedTuple, Sequence
@@ -18,6 +16,7 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..errors import RecordingError
+from ..files import write_atomic
 
 TIME_COLUMNS = ("t", "time")
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -194,7 +193,7 @@ def save_telemetry_csv(path: str | os.PathLike[str], tel: Telemetry) -> None:
     writer.writerow(("t", *tel.joint_names))
     for t, row in zip(tel.times.tolist(), tel.positions.tolist()):
         writer.writerow([repr(t), *map(repr, row)])
-    write_text_atomic(path, buffer.getvalue())
+    write_atomic(path, buffer.getvalue(), RecordingError)
 
 
 def _check_header(header: list[str], line: int, src: str) -> None:
@@ -360,27 +359,6 @@ def read_text(path: Path, what: str) -> str:
     if not text.strip():
         raise RecordingError(f"{what} file is empty", source=src)
     return text
-
-
-def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
-    """Write through a temporary file and `os.replace`, so a reader never sees half a file."""
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
-                handle.write(text)
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.chmod(tmp, 0o644)
-            os.replace(tmp, path)
-        except BaseException:
-            with suppress(OSError):
-                os.unlink(tmp)
-            raise
-    except OSError as err:
-        raise RecordingError(f"cannot write file: {err.strerror or err}", source=str(path)) from None
 
 
 def _read_only(values: Any) -> np.ndarray:

@@ -14,7 +14,8 @@ from ..odb import ObjectDatabase
 from ..odb.mass import drake_shape
 from ..recording.observations import ObservedPoses
 from ..recording.telemetry import Telemetry
-from ..world import WorldState, write_atomic
+from ..files import write_atomic
+from ..world import WorldState
 from .replay import ReplayOptions, ReplayResult, replay
 from .scene import SceneParams, SimConfig, build_scene, to_drake
 

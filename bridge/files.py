@@ -1,0 +1,80 @@
+"""Reading YAML and writing files, for every layer: one YAML dialect and one way to write a file safely.
+
+YAML is read with YAML 1.2 booleans (only true/false), so the predicate name `on` stays a string. Files are
+written to a temporary file beside the target and renamed over it, so a reader sees the old file or the new
+one, never half of one (a world state is never left half-written).
+"""
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from contextlib import suppress
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import BridgeError
+
+
+class _Yaml12Loader(yaml.SafeLoader):
+    """YAML 1.2 booleans: only true/false. In YAML 1.1 the predicate name `on` would read as True."""
+
+
+_Yaml12Loader.yaml_implicit_resolvers = {
+    key: [(tag, regexp) for tag, regexp in resolvers if tag != "tag:yaml.org,2002:bool"]
+    for key, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_Yaml12Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
+
+
+def load_yaml_text(text: str) -> Any:
+    return yaml.load(text, Loader=_Yaml12Loader)
+
+
+def read_yaml(path: str | os.PathLike[str], what: str, error: type[BridgeError] = BridgeError) -> Any:
+    """Parse one YAML file; a missing file or a syntax error is one `error` naming the file (and line)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise error(f"{what} not found", source=str(path)) from None
+    except IsADirectoryError:
+        raise error(f"{what} is a folder, not a file", source=str(path)) from None
+    except OSError as exc:
+        raise error(f"cannot read {what}: {exc.strerror}", source=str(path)) from None
+    try:
+        return load_yaml_text(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise error(f"YAML syntax error: {problem}", source=str(path), field=where) from None
+
+
+def dump_yaml(data: Any) -> str:
+    """Block-style YAML with short lists inline, keys in the given order."""
+    return yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=120, allow_unicode=True)
+
+
+def write_atomic(path: str | os.PathLike[str], text: str, error: type[BridgeError] = BridgeError) -> None:
+    """Write `text` through a temporary file in the same folder and `os.replace`; an OS failure is one `error`."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
+                handle.write(text)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.chmod(tmp, 0o644)
+            os.replace(tmp, path)
+        except BaseException:
+            with suppress(OSError):
+                os.unlink(tmp)
+            raise
+    except OSError as err:
+        raise error(f"cannot write file: {err.strerror or err}", source=str(path)) from None
