@@ -35,6 +35,8 @@ def _domain_name(args) -> str:
 
 # --- commands -----------------------------------------------------------------------------------
 def cmd_check(args) -> int:
+    from .sim.shapes import mass_properties
+
     odb = _odb(args)
     templates = _templates(args, odb)
     concrete = odb.concrete_types()
@@ -43,7 +45,7 @@ def cmd_check(args) -> int:
     for name in concrete:  # mass properties of every usable type, so a broken mesh shows now
         t = odb.types[name]
         if t.geometry is not None and t.geometry.unresolved is None and not t.fixed and not t.is_robot:
-            odb.mass_properties(name)
+            mass_properties(odb, name)
     unresolved = sorted(n for n in concrete if odb.types[n].geometry is not None and odb.types[n].geometry.unresolved)
     if unresolved:
         print(f"  not checked (dataset not found): {', '.join(unresolved)}")

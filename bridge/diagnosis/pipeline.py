@@ -13,11 +13,19 @@ import numpy as np
 from ..errors import DiagnosisError
 from ..odb import ObjectDatabase
 from ..sim.scene import SimConfig
+from ..sim.shapes import mass_properties
 from .effects import Applied
 from .identify import Identification, Options, identify
 from .locate import Localisation, locate
-from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, plot_paths, plot_residuals, plot_scores, report_markdown,
-                     write_outputs)
+from .report import (
+    MAX_RESIDUAL_PLOTS,
+    diagnosis_json,
+    plot_paths,
+    plot_residuals,
+    plot_scores,
+    report_markdown,
+    write_outputs,
+)
 from .scenefile import save_scene_file
 from .simulation import Engine, default_workers, prepare
 
@@ -115,9 +123,9 @@ def save_param_equivalent(path: Path, model: Sequence[Applied], world, odb: Obje
             entries.append({"kind": "friction", "target": a.target, "value": v["mu"]})
         elif a.effect == "mass" and abs(v.get("spread", 1.0) - 1.0) < 0.05:  # the kind scales the inertia
             entries.append({"kind": "mass", "target": a.target, "value": v["mass"]})
-        elif a.effect == "com_offset" and abs(v.get("mass", 0.0) / odb.mass_properties(
+        elif a.effect == "com_offset" and abs(v.get("mass", 0.0) / mass_properties(odb, 
                 world.objects[a.target].type).mass - 1.0) < 0.01:  # a changed mass here keeps the inertia
-            com = odb.mass_properties(world.objects[a.target].type).com
+            com = mass_properties(odb, world.objects[a.target].type).com
             entries += [{"kind": "com_x", "target": a.target, "value": float(com[0] + v["dx"])},
                         {"kind": "com_y", "target": a.target, "value": float(com[1] + v["dy"])}]
         elif a.effect == "latency":

@@ -39,6 +39,7 @@ from ..recording.forces import ObservedForce
 from ..recording.observations import ObservedPoses, ObservedTrack
 from ..recording.recording import save_recording
 from ..recording.telemetry import Telemetry
+from ..sim.shapes import mass_properties
 from ..values import Fact, Pose
 from ..world import ObjectState, RobotState, WorldState, world_to_dict
 
@@ -200,7 +201,7 @@ def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.
     """Draw the concealed effect's true values (same for every recording of the case)."""
     level = MAGNITUDES.index(case.magnitude)
     sign = 1.0 if rng.random() < 0.5 else -1.0
-    m0 = odb.mass_properties(spec.object_type).mass
+    m0 = mass_properties(odb, spec.object_type).mass
     mu_obj = odb.get(spec.object_type).physics.friction
     mu_surf = odb.get(spec.surface_type).physics.friction
     e = case.effect

@@ -14,6 +14,7 @@ from ..errors import FitError
 from ..odb import ObjectDatabase
 from ..recording.telemetry import Telemetry
 from ..sim.scene import ObjectParams, SceneParams
+from ..sim.shapes import mass_properties
 from ..world import WorldState
 
 TYPE_PREFIX = "type:"
@@ -163,7 +164,7 @@ class _ComComponent(ParameterKind):
         for name in names:
             current = setting.object_params(name).com
             if current is None:
-                current = tuple(float(v) for v in setting.odb.mass_properties(setting.world.objects[name].type).com)
+                current = tuple(float(v) for v in mass_properties(setting.odb, setting.world.objects[name].type).com)
             com = list(current)
             com[self.axis] = float(value)
             setting = setting.with_object(name, com=tuple(com))

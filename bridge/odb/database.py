@@ -1,11 +1,8 @@
 """The object database: resolved types plus the PDDL view of them (type tree, predicate signatures)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Mapping
-
-import numpy as np
 
 from ..errors import ObjectDatabaseError
 from .loader import dataset_names, dataset_roots_from_env, load_sie_class, read_types
@@ -15,15 +12,8 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_ROOT = REPO_ROOT / "odb"
 
 
-@dataclass(frozen=True)
-class MassProperties:
-    mass: float
-    com: np.ndarray  # (3,), object frame
-    inertia: np.ndarray  # (3, 3) about the centre of mass, object frame
-
-
 class ObjectDatabase:
-    """Read-only after loading; SIE instances and mass properties are computed once and cached."""
+    """Read-only after loading; SIE instances are made once and cached (mass properties: bridge.sim.shapes)."""
 
     def __init__(self, root: Path, types: Mapping[str, ObjectType], package: str, datasets: Mapping[str, Path]):
         self.root = root
@@ -31,7 +21,6 @@ class ObjectDatabase:
         self.datasets = dict(datasets)
         self._package = package
         self._sies: dict[tuple[str, str], object] = {}
-        self._mass: dict[str, MassProperties] = {}
         self.pddl_types = self._pddl_tree()
         self.predicates = self._signatures()
 
@@ -77,15 +66,6 @@ class ObjectDatabase:
                 instance.declaration = decl
                 self._sies[key] = instance
         return self._sies[key]
-
-    # --- physics ------------------------------------------------------------------------------
-    def mass_properties(self, type_name: str) -> MassProperties:
-        """Mass, centre of mass and inertia; what the YAML leaves out comes from the geometry (uniform density)."""
-        if type_name not in self._mass:
-            from .mass import compute_mass_properties
-
-            self._mass[type_name] = compute_mass_properties(self.get(type_name))
-        return self._mass[type_name]
 
     # --- PDDL view ----------------------------------------------------------------------------
     def _pddl_tree(self) -> dict[str, str | None]:

@@ -22,11 +22,11 @@ from pydrake.systems.framework import DiagramBuilder
 
 from ..errors import ActionError
 from ..odb import ObjectDatabase
-from ..odb.mass import drake_shape
 from ..recording.telemetry import Telemetry
 from ..values import Pose
 from ..world import WorldState
 from .scene import to_drake
+from .shapes import drake_shape
 
 RATE = 50.0  # Hz of generated telemetry
 IK_STEP = 0.005  # m between IK solutions along a Cartesian line

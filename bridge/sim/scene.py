@@ -21,20 +21,16 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
-from pydrake.multibody.plant import (
-    AddMultibodyPlant,
-    CoulombFriction,
-    MultibodyPlantConfig,
-)
+from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
 from pydrake.multibody.tree import SpatialInertia, UnitInertia
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 
 from ..errors import SceneError
 from ..odb import ObjectDatabase, ObjectType
-from ..odb.mass import drake_shape
 from ..values import Pose
 from ..world import WorldState
+from .shapes import drake_shape, mass_properties
 
 
 class _FloorNotice(logging.Filter):
@@ -196,7 +192,7 @@ class Scene:
                     self.scene_graph.AssignRole(sg_ctx, self.plant.get_source_id(), gid, props, RoleAssign.kReplace)
             if (p.mass is not None or p.com is not None or p.inertia_scale is not None) and name in self.bodies:
                 body = self.bodies[name]
-                mp = self.odb.mass_properties(obj_type.name)
+                mp = mass_properties(self.odb, obj_type.name)
                 mass = p.mass if p.mass is not None else mp.mass
                 com = np.asarray(p.com if p.com is not None else mp.com, dtype=float)
                 I_com = mp.inertia * (p.inertia_scale if p.inertia_scale is not None else mass / mp.mass)
@@ -236,7 +232,7 @@ class Scene:
 
 
 def _spatial_inertia(odb: ObjectDatabase, type_name: str) -> SpatialInertia:
-    mp = odb.mass_properties(type_name)
+    mp = mass_properties(odb, type_name)
     I = mp.inertia
     G = UnitInertia(I[0, 0] / mp.mass, I[1, 1] / mp.mass, I[2, 2] / mp.mass,
                     I[0, 1] / mp.mass, I[0, 2] / mp.mass, I[1, 2] / mp.mass)

@@ -10,14 +10,14 @@ from typing import Sequence
 
 from pydrake.geometry import Meshcat, Rgba
 
+from ..files import write_atomic
 from ..odb import ObjectDatabase
-from ..odb.mass import drake_shape
 from ..recording.observations import ObservedPoses
 from ..recording.telemetry import Telemetry
-from ..files import write_atomic
 from ..world import WorldState
 from .replay import ReplayOptions, ReplayResult, replay
 from .scene import SceneParams, SimConfig, build_scene, to_drake
+from .shapes import drake_shape
 
 GHOST_ALPHA = 0.3
 

@@ -8,6 +8,7 @@ from bridge.diagnosis.effects import EFFECTS, Applied, Effect, get_effect, regis
 from bridge.diagnosis.scenefile import load_scene_file, parse_scene, save_scene_file
 from bridge.diagnosis.simulation import resolve
 from bridge.errors import DiagnosisError
+from bridge.sim.shapes import mass_properties
 
 NAMES = ["none", "friction", "mass", "com_offset", "surface_tilt", "friction_patch", "latency", "pusher_offset",
          "hidden_obstacle"]
@@ -102,7 +103,7 @@ def test_negligible_parameters_are_the_effects_own(planar_world, odb):
     3 mm is not; an effect without declared sizes (an obstacle) never is."""
     from bridge.diagnosis.effects import get_effect
 
-    com, m = get_effect("com_offset"), odb.mass_properties("steel_block").mass
+    com, m = get_effect("com_offset"), mass_properties(odb, "steel_block").mass
     assert com.negligible(planar_world, odb, "block", {"dx": 0.0005, "dy": -0.0003, "mass": 2 * m})
     assert not com.negligible(planar_world, odb, "block", {"dx": 0.003, "dy": 0.0, "mass": m})
     assert get_effect("mass").negligible(planar_world, odb, "block", {"mass": 1.03 * m, "spread": 0.0})

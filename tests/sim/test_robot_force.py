@@ -13,6 +13,7 @@ from bridge.odb import load_object_database  # noqa: E402
 from bridge.recording.telemetry import Telemetry  # noqa: E402
 from bridge.sim.layout import combined_friction  # noqa: E402
 from bridge.sim.scene import ObjectParams, SceneParams, build_scene  # noqa: E402
+from bridge.sim.shapes import mass_properties
 from bridge.sim.tracks import simulate_tracks  # noqa: E402
 
 G = 9.81
@@ -26,7 +27,7 @@ def test_push_force_balances_friction_and_scales_with_mass():
     world = nominal_world(spec, odb, push.start)
     scene = build_scene(world, odb)
     telemetry = Telemetry(push.times, ("pusher_x", "pusher_y"), push.path)
-    m = odb.mass_properties(spec.object_type).mass
+    m = mass_properties(odb, spec.object_type).mass
     mu = combined_friction(odb.get(spec.object_type).physics.friction, odb.get(spec.surface_type).physics.friction)
 
     def run(mass):

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import math
 
-from .base import Contribution, Effect, Evidence, ParamSpec, footprint_half, movable_objects
 from ...sim.scene import ObjectParams
+from ...sim.shapes import mass_properties
+from .base import Contribution, Effect, Evidence, ParamSpec, footprint_half, movable_objects
 
 
 class ComOffset(Effect):
@@ -23,13 +24,13 @@ class ComOffset(Effect):
 
     def params(self, world, odb, target):
         hx, hy, _ = footprint_half(world, odb, target)
-        m = odb.mass_properties(world.objects[target].type).mass
+        m = mass_properties(odb, world.objects[target].type).mass
         return (ParamSpec("dx", -0.6 * hx, 0.6 * hx, 0.0, 0.1 * hx, "m", "object frame", negligible=0.001),
                 ParamSpec("dy", -0.6 * hy, 0.6 * hy, 0.0, 0.1 * hy, "m", "object frame", negligible=0.001),
                 ParamSpec("mass", 0.2 * m, 5.0 * m, m, 0.3 * m, "kg", "the object with what moved its centre"))
 
     def contribute(self, world, odb, target, values):
-        props = odb.mass_properties(world.objects[target].type)
+        props = mass_properties(odb, world.objects[target].type)
         com = props.com
         return Contribution(objects=((target, ObjectParams(
             com=(float(com[0] + values["dx"]), float(com[1] + values["dy"]), float(com[2])),

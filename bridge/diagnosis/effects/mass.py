@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import math
 
-from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects
 from ...sim.scene import ObjectParams
+from ...sim.shapes import mass_properties
+from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects
 
 
 class Mass(Effect):
@@ -26,14 +27,14 @@ class Mass(Effect):
         return tuple(n for n in observed if n in movable_objects(world, odb))
 
     def params(self, world, odb, target):
-        m = odb.mass_properties(world.objects[target].type).mass
+        m = mass_properties(odb, world.objects[target].type).mass
         return (ParamSpec("mass", 0.2 * m, 5.0 * m, m, 0.3 * m, "kg", negligible=0.05 * m),
                 ParamSpec("spread", 0.0, 1.5, 1.0, 0.5, "",
                           "where the extra mass sits: 1 spread like the object's own (uniform density), 0 at "
                           "the centre of mass (a compact weight inside: no added rotational inertia)"))
 
     def contribute(self, world, odb, target, values):
-        m0 = odb.mass_properties(world.objects[target].type).mass
+        m0 = mass_properties(odb, world.objects[target].type).mass
         mass, spread = values["mass"], values.get("spread", 1.0)
         return Contribution(objects=((target, ObjectParams(
             mass=mass, inertia_scale=max(0.05, 1.0 + spread * (mass / m0 - 1.0)))),))

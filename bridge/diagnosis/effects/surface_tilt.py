@@ -17,8 +17,9 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of, supported_by, surface_top
+from ...sim.shapes import mass_properties
 from ...values import Pose
+from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of, supported_by, surface_top
 
 G = 9.81
 
@@ -50,7 +51,7 @@ def tilt_forces(world, odb, surface: str, slope_x: float, slope_y: float) -> dic
     if slope_x == 0.0 and slope_y == 0.0:
         return forces
     for name in supported_by(world, odb, surface):
-        m = odb.mass_properties(world.objects[name].type).mass
+        m = mass_properties(odb, world.objects[name].type).mass
         forces[name] = (m * G * math.sin(slope_x), m * G * math.sin(slope_y), 0.0)
     return forces
 

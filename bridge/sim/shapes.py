@@ -1,20 +1,31 @@
-"""Mass properties from geometry with Drake's CalcSpatialInertia (uniform density), as the paper does from meshes.
-
-Drake is imported here lazily, so the planning side of bridge works without touching the simulator.
-"""
+"""Drake shapes of object types and their mass properties (Drake's CalcSpatialInertia, uniform density), as the
+paper takes them from meshes. What the object database leaves out (mass from density, centre of mass, inertia)
+comes from here, computed once per object database and type."""
 from __future__ import annotations
 
+import weakref
+from dataclasses import dataclass
+
 import numpy as np
+from pydrake.geometry import Box, Convex, Cylinder, Mesh, Sphere
+from pydrake.multibody.tree import CalcSpatialInertia
 
 from ..errors import ObjectDatabaseError
-from .database import MassProperties
-from .types import ObjectType
+from ..odb import ObjectDatabase, ObjectType
+
+
+@dataclass(frozen=True, eq=False)
+class MassProperties:
+    mass: float
+    com: np.ndarray  # (3,), object frame
+    inertia: np.ndarray  # (3, 3) about the centre of mass, object frame
+
+
+_CACHE: "weakref.WeakKeyDictionary[ObjectDatabase, dict[str, MassProperties]]" = weakref.WeakKeyDictionary()
 
 
 def drake_shape(obj_type: ObjectType):
     """The pydrake Shape for a type's geometry."""
-    from pydrake.geometry import Box, Convex, Cylinder, Mesh, Sphere
-
     g = obj_type.geometry
     if g is None:
         raise ObjectDatabaseError("has no geometry", source=str(obj_type.source), field=obj_type.name)
@@ -28,13 +39,20 @@ def drake_shape(obj_type: ObjectType):
         name = g.unresolved.split("://", 1)[1].split("/", 1)[0] if g.unresolved else "?"
         raise ObjectDatabaseError(
             f"mesh {g.unresolved} needs the dataset {name!r}: pass --dataset {name}=PATH or set "
-            f"BRIDGE_DATASET_{name.upper().replace('-', '_')}", source=str(obj_type.source), field=f"{obj_type.name}.geometry.mesh")
+            f"BRIDGE_DATASET_{name.upper().replace('-', '_')}", source=str(obj_type.source),
+            field=f"{obj_type.name}.geometry.mesh")
     return Convex(str(g.mesh), g.scale) if g.convex else Mesh(str(g.mesh), g.scale)
 
 
-def compute_mass_properties(obj_type: ObjectType) -> MassProperties:
-    from pydrake.multibody.tree import CalcSpatialInertia
+def mass_properties(odb: ObjectDatabase, type_name: str) -> MassProperties:
+    """Mass, centre of mass and inertia of a type; what its YAML leaves out comes from the geometry."""
+    per_odb = _CACHE.setdefault(odb, {})
+    if type_name not in per_odb:
+        per_odb[type_name] = _compute(odb.get(type_name))
+    return per_odb[type_name]
 
+
+def _compute(obj_type: ObjectType) -> MassProperties:
     phys = obj_type.physics
     where = dict(source=str(obj_type.source), field=f"{obj_type.name}.physics")
     if obj_type.geometry is None:
