@@ -5,12 +5,12 @@ The main entry points are re-exported here; each lives in the module named after
 """
 from .errors import BridgeError
 from .odb import ObjectDatabase, load_object_database
-from .sie import SIE, EvaluationContext
+from .inference import SIE, EvaluationContext, infer_state
 from .values import Contact, Fact, Pose
 from .world import WorldState, load_world_state, save_world_state
 
 __all__ = [
     "SIE", "BridgeError", "Contact", "EvaluationContext", "Fact", "ObjectDatabase", "Pose", "WorldState",
-    "load_object_database", "load_world_state", "save_world_state",
+    "infer_state", "load_object_database", "load_world_state", "save_world_state",
 ]
 __version__ = "0.1.0"

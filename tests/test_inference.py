@@ -62,7 +62,7 @@ def test_sie_failures_are_reported_and_change_nothing(tmp_path, world):
     robots = root / "types" / "robots.yaml"
     robots.write_text(robots.read_text().replace("../../models/", f"{REPO}/models/"))
     (root / "sies" / "broken.py").write_text(
-        "from bridge.sie import SIE\nfrom bridge.values import Fact\n"
+        "from bridge.inference import SIE\nfrom bridge.values import Fact\n"
         "class Raises(SIE):\n    def evaluate(self, obj, ctx):\n        raise ZeroDivisionError('tilt sensor')\n"
         "class Malformed(SIE):\n    def evaluate(self, obj, ctx):\n        return [('on', obj, 'table')]\n"
         "class Foreign(SIE):\n    def evaluate(self, obj, ctx):\n        return [Fact('clear', ('small_box',))]\n")

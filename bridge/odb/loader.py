@@ -343,8 +343,9 @@ def _sie_package(root: Path) -> str:
 
 
 def load_sie_class(package: str, ref: SIERef) -> type:
-    from ..sie import SIE
-
+    """The class `ref` names. An SIE is any class with ``evaluate(obj, ctx)`` (usually a subclass of
+    `bridge.inference.SIE`); the database checks the shape, not the ancestry, so it needs nothing of the
+    inference layer above it."""
     try:
         module = importlib.import_module(f"{package}.{ref.module}")
     except ModuleNotFoundError as exc:
@@ -352,8 +353,9 @@ def load_sie_class(package: str, ref: SIERef) -> type:
     except Exception as exc:  # the module itself is broken
         raise ObjectDatabaseError(f"SIE module {ref.module!r} failed to import: {type(exc).__name__}: {exc}", source=ref.source) from None
     cls = getattr(module, ref.cls, None)
-    if not isinstance(cls, type) or not issubclass(cls, SIE):
-        raise ObjectDatabaseError(f"{ref} is not an SIE class (a subclass of bridge.sie.SIE)", source=ref.source)
+    if not isinstance(cls, type) or not callable(getattr(cls, "evaluate", None)):
+        raise ObjectDatabaseError(f"{ref} is not an SIE class (a class with evaluate(obj, ctx), e.g. a subclass of "
+                                  "bridge.inference.SIE)", source=ref.source)
     return cls
 
 

@@ -2,7 +2,7 @@
 import numpy as np
 
 from bridge.odb.geometry import support
-from bridge.sie import SIE
+from bridge.inference import SIE
 
 from .support import rests_on
 

@@ -1,5 +1,5 @@
 """SIEs about the robot's gripper: holding and hand-empty, decided from finger contacts."""
-from bridge.sie import SIE
+from bridge.inference import SIE
 
 
 def finger_links(ctx):

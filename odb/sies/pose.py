@@ -1,7 +1,7 @@
 """SIEs decided by an object's own pose."""
 import math
 
-from bridge.sie import SIE, angle_between
+from bridge.inference import SIE, angle_between
 
 
 class Upright(SIE):

@@ -1,6 +1,6 @@
 """SIEs about support: what rests on what, what is clear, what lies in a container."""
 from bridge.odb.geometry import contains_xy, z_range
-from bridge.sie import SIE
+from bridge.inference import SIE
 
 
 def rests_on(obj, support, ctx, tolerance=0.012):
