@@ -14,7 +14,7 @@ from pathlib import Path
 from bridge.inference import infer_state
 from bridge.odb import load_object_database
 from bridge.planning import apply_action, load_action_templates
-from bridge.sim.bodies import BODIES, world_after_replay
+from bridge.bodies import BODIES, world_after_replay
 from bridge.sim.replay import replay
 from bridge.sim.scene import build_scene
 from bridge.world import load_world_state

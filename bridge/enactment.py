@@ -22,7 +22,7 @@ from .planning.templates import ActionTemplate
 from .recording.observations import ObservedPoses, ObservedTrack
 from .recording.recording import Recording, save_recording
 from .recording.telemetry import Telemetry
-from .sim.bodies import BODIES, world_after_replay
+from .bodies import BODIES, world_after_replay
 from .sim.replay import ReplayResult, replay
 from .sim.scene import build_scene
 from .values import Pose

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import DiagnosisError
 from ..odb import ObjectDatabase
-from ..sim.layout import combined_friction
+from ..sim.friction import combined_friction
 from ..files import write_atomic
 from .effects import EFFECTS
 from .identify import Options

@@ -11,7 +11,7 @@ pytest.importorskip("pydrake")
 from bridge.diagnosis.scenarios import design_pushes, nominal_world, scene_spec  # noqa: E402
 from bridge.odb import load_object_database  # noqa: E402
 from bridge.recording.telemetry import Telemetry  # noqa: E402
-from bridge.sim.layout import combined_friction  # noqa: E402
+from bridge.sim.friction import combined_friction  # noqa: E402
 from bridge.sim.scene import ObjectParams, SceneParams, build_scene  # noqa: E402
 from bridge.sim.shapes import mass_properties
 from bridge.sim.tracks import simulate_tracks  # noqa: E402

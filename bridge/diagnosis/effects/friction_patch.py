@@ -13,7 +13,7 @@ import numpy as np
 
 from ...odb.geometry import half_extents
 from ...sim.extras import SurfacePatch
-from ...sim.layout import combined_friction, surface_friction_for
+from ...sim.friction import combined_friction, surface_friction_for
 from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of, supported_by, surface_top
 
 RAISED = 1.0e-6  # m: the sheet carries what stands on it (objects sink ~0.6 um), its edge is no step

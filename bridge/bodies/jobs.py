@@ -13,8 +13,10 @@ from ..odb import ObjectDatabase
 from ..recording.telemetry import Telemetry
 from ..values import Pose, rotation_to_quat
 from ..world import WorldState
-from .layout import Layout, combined_friction, horizontal
-from .motion import Arm, MotionBuilder, arm_for, clearance_for
+from ..sim.friction import combined_friction
+from .layout import Layout, horizontal
+from ..sim.kinematics import Arm, arm_for, clearance_for
+from .motion import MotionBuilder
 
 # the demo arm's finger pads (models/arm7): half width across the fingers' faces, and how far closed fingers reach
 PAD_HALF_WIDTH = 0.01

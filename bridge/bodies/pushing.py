@@ -17,7 +17,8 @@ from ..values import Pose
 from ..world import WorldState
 from .jobs import (CARRY_SPEED, NEAR_SPEED, PAD_FRICTION, PAD_HALF_SPAN, PAD_HALF_WIDTH, PRESS, STANDOFF,
                    TABLE_CLEARANCE, Job, first_working, fmt_dir, fmt_point, refuse, rotation_about, start_job)
-from .layout import UP, Footprint, combined_friction, horizontal
+from ..sim.friction import combined_friction
+from .layout import UP, Footprint, horizontal
 from .motion import frame_rotation
 
 

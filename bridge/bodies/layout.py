@@ -163,14 +163,3 @@ class Layout:
                     spots.append(fp.centre)
         near = np.array([near[0], near[1], 0.0])
         return sorted(spots, key=lambda s: float(np.linalg.norm(s - near)))
-
-
-def combined_friction(a: float, b: float) -> float:
-    """Drake's rule for two surfaces' coefficients."""
-    return 2.0 * a * b / (a + b) if a + b > 0 else 0.0
-
-
-def surface_friction_for(pair: float, object_mu: float) -> float:
-    """The surface coefficient that combines with `object_mu` to `pair` (capped: a pair cannot exceed 2 mu)."""
-    pair = min(pair, 1.95 * object_mu)
-    return pair * object_mu / (2.0 * object_mu - pair)

@@ -16,7 +16,8 @@ the templates' effects say (see pddl/templates/*.yaml and the SIEs in odb/sies/)
 - stand_up(r, o, s): o lies on s; grasp it near the end that must go up, lift, turn it upright about the grasp
   axis, set it down, release, retreat. (The gripper opens 8 cm: a box wider than 6 cm across cannot be stood up.)
 
-Bodies live in pushing.py and grasping.py; jobs.py holds what they share, motion.py the IK and trajectories,
+Bodies live in pushing.py and grasping.py; jobs.py holds what they share, motion.py the trajectories (the IK
+plant and the clearance check are Drake: bridge.sim.kinematics),
 layout.py the geometry of free space. Failures (unknown object, nothing reachable, no free spot, IK failure) raise `ActionError` naming the action,
 the object and the target point. Motions are checked against the world's objects (`Clearance`) before they are
 returned: the arm keeps 5 mm from everything it is not meant to touch.

@@ -14,8 +14,9 @@ from bridge.odb import load_object_database  # noqa: E402
 from bridge.odb.geometry import support  # noqa: E402
 from bridge.planning import apply_action, load_action_templates  # noqa: E402
 from bridge.recording.recording import load_recording  # noqa: E402
-from bridge.sim.bodies import BODIES, push_at, world_after_replay  # noqa: E402
-from bridge.sim.motion import RATE, arm_for  # noqa: E402
+from bridge.bodies import BODIES, push_at, world_after_replay  # noqa: E402
+from bridge.bodies.motion import RATE  # noqa: E402
+from bridge.sim.kinematics import arm_for  # noqa: E402
 from bridge.sim.replay import replay  # noqa: E402
 from bridge.sim.scene import ObjectParams, SceneParams, build_scene  # noqa: E402
 from bridge.world import load_world_state, world_from_dict  # noqa: E402
