@@ -15,8 +15,8 @@ from bridge.inference import infer_state
 from bridge.odb import load_object_database
 from bridge.planning import apply_action, load_action_templates
 from bridge.bodies import BODIES, world_after_replay
-from bridge.sim.replay import replay
-from bridge.sim.scene import build_scene
+from bridge.enactment import REPLAY
+from bridge.rollout import Rollout, run_rollout
 from bridge.world import load_world_state
 
 REPO = Path(__file__).resolve().parents[1]
@@ -41,12 +41,11 @@ def main() -> None:
         started = time.perf_counter()
         telemetry = BODIES[action](world, odb, list(args))
         planning = time.perf_counter() - started
-        scene = build_scene(world, odb)
-        result = replay(scene, telemetry, world=world)
+        result = run_rollout(Rollout(world, telemetry), odb, REPLAY)
         inferred = infer_state(world, odb, result.final_poses, result.final_contacts, result.moved, result.contact_pairs())
         expected = apply_action(world, odb, templates, action, list(args))
         if action == "pick":
-            held = world_after_replay(world, scene, result, inferred.world.facts)
+            held = world_after_replay(world, result, inferred.world.facts)
         rows.append({"action": action, "args": list(args), "telemetry_s": round(telemetry.duration, 2),
                      "samples": len(telemetry), "planning_s": round(planning, 3), "replay_wall_s": round(result.wall_time, 2),
                      "realtime_factor": round(result.realtime_factor, 2), "facts_match": inferred.world.facts == expected.facts})

@@ -23,12 +23,13 @@ from .recording.observations import ObservedPoses, ObservedTrack
 from .recording.recording import Recording, save_recording
 from .recording.telemetry import Telemetry
 from .bodies import BODIES, world_after_replay
-from .sim.replay import ReplayResult, replay
-from .sim.scene import build_scene
+from .rollout.rollout import Rollout, run_rollout
+from .sim.simulate import ReplayResult, SimOptions
 from .values import Pose
 from .world import WorldState, load_world_state
 
 STEP_PAUSE = 0.2  # s between two actions' telemetry
+REPLAY = SimOptions(contacts=True, final_contacts=True, joint_track=True)  # what inference and the next body read
 
 
 @dataclass(frozen=True)
@@ -65,25 +66,28 @@ def enact(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, Action
           steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None) -> Enactment:
     """`plan_telemetry`, then replay all of it from `world` and infer the world after."""
     steps = _steps(steps)
-    scene = build_scene(world, odb)
-    telemetry, expected = plan_telemetry(world, odb, templates, steps, rng=rng, scene=scene)
-    result = replay(scene, telemetry, world=world)
-    inferred = infer_state(world, odb, result.final_poses, result.final_contacts, result.moved,
-                           result.contact_pairs(), time=result.sim_time)
-    after = world_after_replay(world, scene, result, inferred.world.facts)
+    telemetry, expected = plan_telemetry(world, odb, templates, steps, rng=rng)
+    result, after = _replay(world, telemetry, odb)
     return Enactment(telemetry, result, world, after, expected, steps)
 
 
+def _replay(world: WorldState, telemetry: Telemetry, odb: ObjectDatabase) -> tuple[ReplayResult, WorldState]:
+    """Replay `telemetry` from `world` and the world it ends in (simulated poses, inferred facts, the robot's
+    joints where it stood at the end)."""
+    result = run_rollout(Rollout(world, telemetry), odb, REPLAY)
+    inferred = infer_state(world, odb, result.final_poses, result.final_contacts, result.moved,
+                           result.contact_pairs(), time=result.sim_time)
+    return result, world_after_replay(world, result, inferred.world.facts)
+
+
 def plan_telemetry(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate],
-                   steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None,
-                   scene=None) -> tuple[Telemetry, WorldState]:
+                   steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None) -> tuple[Telemetry, WorldState]:
     """The joined telemetry of the steps' bodies and the world the templates' effects lead to. Each body after the
     first is planned from the world the simulation reached after the one before (simulated poses, inferred facts,
     the robot's joints where the last telemetry ended). Preconditions are checked on the expected states."""
     steps = _steps(steps)
     if not steps:
         raise ActionError("nothing to enact: the plan has no steps")
-    scene = scene or build_scene(world, odb)
     expected = world
     current = world
     pieces: list[Telemetry] = []
@@ -94,10 +98,7 @@ def plan_telemetry(world: WorldState, odb: ObjectDatabase, templates: Mapping[st
             current = _with_joints(current, pieces[-1])  # start where the last telemetry ended
         pieces.append(body(current, odb, list(step.args), rng=rng))
         if number < len(steps):
-            result = replay(scene, pieces[-1], world=current)
-            inferred = infer_state(current, odb, result.final_poses, result.final_contacts, result.moved,
-                                   result.contact_pairs(), time=result.sim_time)
-            current = world_after_replay(current, scene, result, inferred.world.facts)
+            current = _replay(current, pieces[-1], odb)[1]
     return join_telemetry(pieces, source=" then ".join(map(str, steps))), expected
 
 

@@ -47,8 +47,12 @@ class SimulationFailure(SceneError):
     """The simulation produced garbage (NaN, object through the table, robot not following telemetry)."""
 
 
+class ParameterError(BridgeError):
+    """A malformed parameter or scene file, an unknown kind, a target that names nothing."""
+
+
 class FitError(BridgeError):
-    """Bad parameter specification or a fit that cannot run."""
+    """A fit that cannot run (no trials, no free parameter, a checkpoint of another fit, ...)."""
 
 
 class DiagnosisError(BridgeError):

@@ -6,18 +6,16 @@ symbolic changes while the replay runs (time-stamped JSON lines), the paper's on
 from __future__ import annotations
 
 import json
-import math
 import time as wallclock
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass, replace
 from typing import Callable, Mapping, TextIO
 
 from .inference import InferenceResult, infer_state
 from .odb import ObjectDatabase
 from .recording.recording import Recording
-from .sim.replay import MOVED_ROTATION, MOVED_TRANSLATION, ReplayOptions, ReplayResult, replay
-from .sim.scene import Scene, SceneParams, SimConfig, build_scene
-from .values import Contact, Fact, Pose
+from .rollout.rollout import Rollout, run_rollout
+from .sim.simulate import MOVED_ROTATION, MOVED_TRANSLATION, ReplayResult, SimOptions
+from .values import Contact, Pose
 from .world import WorldState, load_world_state
 
 
@@ -63,23 +61,15 @@ class _Follower:
                 self.sink(event)
 
 
-def run_session(
-    before: WorldState,
-    telemetry,
-    odb: ObjectDatabase,
-    *,
-    scene: Scene | None = None,
-    params: SceneParams | None = None,
-    config: SimConfig = SimConfig(),
-    options: ReplayOptions = ReplayOptions(),
-    event_period: float | None = None,
-    on_event: Callable[[dict], None] | None = None,
-    progress: Callable[[float, float], None] | None = None,
-) -> SessionResult:
-    """Replay `telemetry` from `before` and infer the state after it."""
-    scene = scene or build_scene(before, odb, config)
+def run_session(rollout: Rollout, odb: ObjectDatabase, *, options: SimOptions = SimOptions(),
+                event_period: float | None = None, on_event: Callable[[dict], None] | None = None,
+                progress: Callable[[float, float], None] | None = None) -> SessionResult:
+    """Replay `rollout` (a recording's world before and telemetry, with any parameters applied) and infer the
+    state after it."""
+    before = rollout.world
     follower = _Follower(before, odb, event_period, on_event) if event_period else None
-    result = replay(scene, telemetry, world=before, params=params, options=options, on_sample=follower, progress=progress)
+    options = replace(options, contacts=True, final_contacts=True, joint_track=True)
+    result = run_rollout(rollout, odb, options, on_sample=follower, progress=progress)
     started = wallclock.perf_counter()
     inference = infer_state(before, odb, result.final_poses, result.final_contacts, result.moved,
                             result.contact_pairs(), time=result.sim_time)
@@ -87,10 +77,12 @@ def run_session(
     return SessionResult(before, result, inference, tuple(follower.events) if follower else (), elapsed)
 
 
-def infer_recording(recording: Recording, odb: ObjectDatabase, **kwargs) -> SessionResult:
-    """`run_session` on a recording folder (its world state before, its telemetry)."""
-    before = load_world_state(recording.world_path, odb)
-    return run_session(before, recording.telemetry, odb, **kwargs)
+def infer_recording(recording: Recording, odb: ObjectDatabase, *, config=None, **kwargs) -> SessionResult:
+    """`run_session` on a recording folder (its world state before, its telemetry; `config` a `SimConfig`)."""
+    rollout = Rollout(load_world_state(recording.world_path, odb), recording.telemetry, name=recording.name)
+    if config is not None:
+        rollout = replace(rollout, config=config)
+    return run_session(rollout, odb, **kwargs)
 
 
 def json_lines(stream: TextIO) -> Callable[[dict], None]:

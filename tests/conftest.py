@@ -33,3 +33,12 @@ def odb_copy(tmp_path) -> Path:
     robots = root / "types" / "robots.yaml"
     robots.write_text(robots.read_text().replace("../../models/", f"{REPO}/models/"))
     return root
+
+
+@pytest.fixture(scope="session")
+def odb():
+    """The bundled object database (mit-push meshes from ../shared when present)."""
+    pytest.importorskip("pydrake")
+    from bridge.odb import load_object_database
+
+    return load_object_database()

@@ -35,17 +35,16 @@ from .pushing import push, push_against, push_at, push_over
 __all__ = ["BODIES", "Body", "Job", "push_at", "start_job", "world_after_replay"]
 
 
-def world_after_replay(before: WorldState, scene, result, facts) -> WorldState:
-    """The world a replay ends in: the simulated objects' final poses, the robot's joints where the simulated
-    robot stood at the end (fingers squeezing a held object stay where the object stopped them), and `facts`
-    (e.g. the inferred ones). Starting a replay from it puts a held object between the fingers again."""
+def world_after_replay(before: WorldState, result, facts) -> WorldState:
+    """The world a replay (`bridge.sim.simulate.ReplayResult` with its joint track) ends in: the simulated
+    objects' final poses, the robot's joints where the simulated robot stood at the end (fingers squeezing a
+    held object stay where the object stopped them), and `facts` (e.g. the inferred ones). Starting a replay
+    from it puts a held object between the fingers again."""
     world = before.with_poses(result.final_poses).with_facts(facts)
     if before.robot is None or result.joint_track is None:
         return world
-    plant = scene.plant
-    names = [plant.get_joint_actuator(a).joint().name() for a in plant.GetJointActuatorIndices(scene.robot_instance)]
     joints = dict(before.robot.joints)
-    joints.update({n: float(v) for n, v in zip(names, result.joint_track[-1])})
+    joints.update({n: float(v) for n, v in zip(result.joint_names, result.joint_track[-1])})
     return replace(world, robot=replace(before.robot, joints=tuple(joints.items())))
 
 

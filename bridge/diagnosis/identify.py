@@ -30,13 +30,13 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import DiagnosisError
-from ..fit.error import PoseError
+from ..params import Model, Parameter, ParameterSet
+from ..params.surfaces import support_of
+from ..rollout.compare import PoseError
 from .effects import EFFECTS, Evidence, get_effect
-from .effects.base import support_of
-from .effects.pusher_offset import joint_kinds
 from .locate import Localisation, locate
-from .search import Evaluator, FitResult, Part, Space, bic, correlation_time, fit, gauss_newton_step, pose_error_of
-from .simulation import Engine, Model, chi2_of
+from .runs import Runner, chi2_of
+from .search import Evaluator, FitResult, bic, correlation_time, fit, pose_error_of, screen
 
 MAX_FULL_FITS = 4  # candidates fitted fully after screening
 NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise floor
@@ -52,6 +52,7 @@ class Options:
     effects: tuple[str, ...] | None = None  # restrict the catalog (None: all)
     max_full_fits: int = MAX_FULL_FITS
     max_iterations: int = 6
+    optimizer: str = "lm"  # of the full fits (bridge.optim.NAMES); screening always takes one Gauss-Newton step
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,7 +61,7 @@ class Candidate:
     target: str
     prior: float
     screened_chi2: float = math.inf
-    start: tuple[dict[str, float], ...] = ()
+    start: dict[str, float] = field(default_factory=dict)  # the screened point, by parameter name
     note: str = ""
 
 
@@ -96,8 +97,8 @@ class Scored:
                "std": {k: (float(f"{v:.3g}") if math.isfinite(v) else None) for k, v in self.std.items()},
                "score": round(self.score, 3), "bic": round(self.bic, 3), "k": self.k,
                "rms_sigma": round(self.rms, 3),
-               "model": [{"effect": a.effect, "target": a.target, "params": {k: float(f"{v:.6g}") for k, v in a.params}}
-                         for a in self.model]}
+               "model": [{"kind": m.kind, "target": m.target, "value": float(f"{m.value:.6g}"),
+                          **({"effect": m.effect} if m.effect else {})} for m in self.model]}
         if self.error is not None:
             out["error"] = _error_json(self.error)
         if self.held_out_error is not None:
@@ -146,25 +147,25 @@ def _error_json(e: PoseError) -> dict[str, float]:
 
 
 # --- the recipe -----------------------------------------------------------------------------------------------
-def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (), options: Options = Options(),
+def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (), options: Options = Options(),
              log=None) -> Identification:
     started = time.perf_counter()
-    sims0 = engine.simulations
+    sims0 = runner.simulations
     say = log or (lambda message: None)
     if not train:
         raise DiagnosisError("identify needs at least one training recording")
-    ev = Evaluator(engine, train)
-    loc = locate(engine, list(train))
-    held_loc = locate(engine, list(held_out)) if held_out else None
-    world = engine.prepared[train[0]].world
-    odb = engine.odb
+    ev = Evaluator(runner, train)
+    loc = locate(runner, list(train))
+    held_loc = locate(runner, list(held_out)) if held_out else None
+    world = runner.prepared[train[0]].world
+    odb = runner.odb
     notes: list[str] = []
     ev.cache[()] = tuple(loc.runs)
     none_chi2, n = chi2_of(loc.runs)
     ranked_objects = [name for name, excess in loc.objects_ranked() if excess > 0] or \
         [o for o, _ in loc.objects_ranked()]
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
-                        joint_kinds(world, odb), loc.force_scale())
+                        loc.force_scale())
     none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
@@ -174,21 +175,21 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
     if not loc.any_significant:
         notes.append("no recording carries a residual above the noise floor: nothing to fit")
         scored = _score([none], 1.0)
-        scored = _held_out(engine, held_out, scored)
-        return Identification("none", tuple(scored), loc, _names(engine, train), _names(engine, held_out), 1.0, (),
-                              tuple(notes), engine.simulations - sims0, time.perf_counter() - started, held_loc)
+        scored = _held_out(runner, held_out, scored)
+        return Identification("none", tuple(scored), loc, _names(runner, train), _names(runner, held_out), 1.0, (),
+                              tuple(notes), runner.simulations - sims0, time.perf_counter() - started, held_loc)
 
     allowed = set(options.effects or EFFECTS) - {"none"}
     focus = ranked_objects[:1]
     # 2. the ordinary parameters: friction of the object carrying the residual and of the surface it slides on
     #    (Drake combines the two per pair: the surface's value changes only that pair, the object's every pair)
-    fr = get_effect("friction")
     friction_targets = [t for t in (support_of(world, odb, focus[0]), focus[0]) if t]
-    friction_parts = [Part("friction", t, tuple(fr.params(world, odb, t))) for t in friction_targets]
-    base_space = Space(friction_parts)
-    base_fit = fit(ev, base_space, np.zeros(base_space.dim), max_iterations=options.max_iterations + FRICTION_EXTRA)
-    friction_scored = _from_fit("friction", base_fit, world, odb, base_space.dim)
-    say(f"friction: {_fmt({a.target: a.values()['mu'] for a in base_fit.model()})}, rms {friction_scored.rms:.1f}")
+    friction_params = [Parameter.of("friction", t, world, odb, effect="friction") for t in friction_targets]
+    base_space = ParameterSet(tuple(friction_params), "the ordinary parameters")
+    base_fit = fit(ev, base_space, np.zeros(base_space.dim), max_iterations=options.max_iterations + FRICTION_EXTRA,
+                   optimizer=options.optimizer)
+    friction_scored = _from_fit("friction", None, base_fit, world, odb)
+    say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}")
 
     # 3. screen candidates (each together with the friction coefficients), likely ones first
     candidates = []
@@ -201,28 +202,28 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
     candidates.sort(key=lambda c: -c.prior)
     screened = []
     fitted_friction = base_fit.values()  # every candidate starts from the fitted coefficients
-    nominal_friction = [{s.name: s.null for s in p.specs} for p in friction_parts]
+    nominal_friction = {p.name: p.start for p in friction_params}
     for c in candidates:
         effect = get_effect(c.effect)
-        space = Space(friction_parts + [Part(c.effect, c.target, tuple(effect.params(world, odb, c.target)))])
+        space = _space(friction_params, effect, c.target, world, odb)
         # each seed with the fitted coefficients and with the nominal ones (the friction fit may have taken up
         # what the effect explains, e.g. a heavier object's larger push force); smooth effects then take one
         # Gauss-Newton step from the best start of each
-        starts = [space.to_x(frictions + [seed]) for seed in effect.seeds(evidence, c.target)
+        starts = [space.to_normal({**frictions, **seed}) for seed in effect.seeds(evidence, c.target)
                   for frictions in (fitted_friction, nominal_friction)]
         if not starts:
-            screened.append(Candidate(c.effect, c.target, c.prior, math.inf, (), "no seed from the localisation"))
+            screened.append(Candidate(c.effect, c.target, c.prior, math.inf, {}, "no seed from the localisation"))
             continue
-        ev.runs_many([space.model(x) for x in starts])  # one batch on the workers
-        chis = [ev.chi2(space.model(x)) for x in starts]
+        ev.runs_many([_model(space, x) for x in starts])  # one batch on the workers
+        chis = [ev.chi2(_model(space, x)) for x in starts]
         x, chi2 = starts[int(np.argmin(chis))], float(min(chis))
         if effect.smooth:
             for family in (starts[0::2], starts[1::2]):  # fitted, nominal coefficients
-                best = min(family, key=lambda y: ev.chi2(space.model(y)))
-                y, c2 = gauss_newton_step(ev, space, best)
+                best = min(family, key=lambda y: ev.chi2(_model(space, y)))
+                y, c2 = screen(ev, space, best)
                 if c2 < chi2:
                     x, chi2 = y, c2
-        screened.append(Candidate(c.effect, c.target, c.prior, chi2, tuple(space.values(x))))
+        screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x))))
         say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}")
 
     reference = min(none_chi2, base_fit.chi2)
@@ -233,26 +234,27 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
 
     order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
     # 4. full fits, each effect together with the friction coefficients, from the screened point
-    fitted: list[Scored] = _held_out(engine, held_out, [none, friction_scored])
+    fitted: list[Scored] = _held_out(runner, held_out, [none, friction_scored])
     # every one of the best `max_full_fits`: a single Gauss-Newton step is a rough screen (an off-centre weight in
     # a tall box screened at no gain and fitted to half the residual of the screen's favourite)
     for c in order[:options.max_full_fits]:
         effect = get_effect(c.effect)
-        space = Space(friction_parts + [Part(c.effect, c.target, tuple(effect.params(world, odb, c.target)))])
+        space = _space(friction_params, effect, c.target, world, odb)
         # start from the screened point, or from the fitted friction with the screened effect if that is better
-        starts = [space.to_x(list(c.start)), space.to_x(base_fit.values() + [c.start[-1]])]
-        chis = [ev.chi2(space.model(x)) for x in starts]
-        result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations)
-        scored = _held_out(engine, held_out, [_from_fit(c.effect, result, world, odb, space.dim)])[0]
-        frictions = {a.target: a.values()["mu"] for a in scored.model if a.effect == "friction"}
+        starts = [space.to_normal(c.start), space.to_normal({**c.start, **base_fit.values()})]
+        chis = [ev.chi2(_model(space, x)) for x in starts]
+        result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations,
+                     optimizer=options.optimizer)
+        scored = _held_out(runner, held_out, [_from_fit(c.effect, c.target, result, world, odb)])[0]
+        frictions = {s.name: s.value for s in scored.model if s.kind == "friction" and s.effect == "friction"}
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
-        x_f = base_space.to_x([{"mu": frictions[t]} for t in friction_targets])
-        if ev.chi2(base_space.model(x_f)) < fitted[1].chi2:
-            base_fit = fit(ev, base_space, x_f, max_iterations=FRICTION_EXTRA)
-            fitted[1] = _held_out(engine, held_out, [_from_fit("friction", base_fit, world, odb, base_space.dim)])[0]
-            say(f"friction refitted from {c.effect}'s coefficients: "
-                f"{_fmt({a.target: a.values()['mu'] for a in base_fit.model()})}, rms {fitted[1].rms:.1f}")
+        x_f = base_space.to_normal(frictions)
+        if ev.chi2(_model(base_space, x_f)) < fitted[1].chi2:
+            base_fit = fit(ev, base_space, x_f, max_iterations=FRICTION_EXTRA, optimizer=options.optimizer)
+            fitted[1] = _held_out(runner, held_out, [_from_fit("friction", None, base_fit, world, odb)])[0]
+            say(f"friction refitted from {c.effect}'s coefficients: {_fmt(base_fit.values())}, "
+                f"rms {fitted[1].rms:.1f}")
         fitted.append(scored)
         ok = _acceptable(scored, fitted[0], fitted[1], bool(held_out), world, odb) is None
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
@@ -262,31 +264,46 @@ def identify(engine: Engine, train: Sequence[int], held_out: Sequence[int] = (),
     verdict, check = _verdict(scored, bool(held_out), world, odb)
     if check:
         notes.append(check)
-    return Identification(verdict, tuple(scored), loc, _names(engine, train), _names(engine, held_out), tau,
-                          tuple(screened), tuple(notes), engine.simulations - sims0, time.perf_counter() - started,
+    if runner.failures:
+        notes.append(f"{len(runner.failures)} simulation(s) failed and scored as far off (first: "
+                     f"{runner.failures[0][0]}: {runner.failures[0][1]})")
+    return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
+                          tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
                           held_loc)
 
 
-def _names(engine: Engine, indices: Sequence[int]) -> tuple[str, ...]:
-    return tuple(engine.prepared[i].name for i in indices)
+def _space(friction: Sequence[Parameter], effect, target: str, world, odb) -> ParameterSet:
+    """The friction coefficients and an effect's parameters, searched together."""
+    return ParameterSet(tuple(friction) + effect.parameters(world, odb, target), f"{effect.name} on {target}")
+
+
+def _model(space: ParameterSet, x: np.ndarray) -> Model:
+    return space.model(space.from_normal(x))
+
+
+def _names(runner: Runner, indices: Sequence[int]) -> tuple[str, ...]:
+    return tuple(runner.prepared[i].name for i in indices)
 
 
 def _fmt(values: dict[str, float]) -> str:
     return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
 
 
-def _from_fit(effect: str, result: FitResult, world, odb, k: int) -> Scored:
-    """The Scored model of a fit: the effect is its last part, or for friction the part that moved most (in
-    units of its scale)."""
-    parts, values_all, std_all = result.space.parts, result.values(), result.std()
-    index = len(parts) - 1
+def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) -> Scored:
+    """The Scored model of a fit: the effect's own parameters (for friction, the coefficient that moved most, in
+    units of its step)."""
+    free, values, std = result.space.free, result.values(), result.std()
     if effect == "friction":
-        moved = [max(abs(values_all[i][s.name] - s.null) / s.scale for s in p.specs) for i, p in enumerate(parts)]
-        index = int(np.argmax(moved))
-    target, values, std = parts[index].target, values_all[index], std_all[index]
-    derived = get_effect(effect).describe(world, odb, target, values)
-    return Scored(effect, target, values, std, result.model(), k, result.chi2, result.n,
-                  error=pose_error_of(result.runs), derived=derived, evaluations=result.evaluations)
+        moved = max(range(len(free)), key=lambda i: abs(result.x[i]))
+        own = [free[moved]]
+        target = own[0].target
+    else:
+        own = [p for p in free if p.effect == effect]
+    params = {p.name: values[p.name] for p in own}
+    derived = get_effect(effect).describe(world, odb, target, params)
+    return Scored(effect, target, params, {p.name: std[p.name] for p in own}, result.model(), result.space.dim,
+                  result.chi2, result.n, error=pose_error_of(result.runs), derived=derived,
+                  evaluations=result.evaluations)
 
 
 def _score(models: Sequence[Scored], tau: float) -> list[Scored]:
@@ -299,12 +316,12 @@ def _score(models: Sequence[Scored], tau: float) -> list[Scored]:
     return sorted(out, key=lambda m: -m.score)
 
 
-def _held_out(engine: Engine, held_out: Sequence[int], scored: list[Scored]) -> list[Scored]:
+def _held_out(runner: Runner, held_out: Sequence[int], scored: list[Scored]) -> list[Scored]:
     if not held_out:
         return scored
     from dataclasses import replace
 
-    runs = engine.run_many([s.model for s in scored], list(held_out))
+    runs = runner.run_many([s.model for s in scored], list(held_out))
     out = []
     for s, r in zip(scored, runs):
         chi2, n = chi2_of(r)

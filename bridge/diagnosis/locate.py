@@ -19,12 +19,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..fit.error import pose_error_arrays
 from ..odb import ObjectDatabase
 from ..odb.geometry import support
-from ..values import Pose
-from .residuals import ObservedSeries, sample_track
-from .simulation import Engine, Prepared, Run
+from ..rollout.compare import pose_error_arrays, sample_track
+from ..values import Pose, rotation_to_quat
+from .residuals import ObservedSeries
+from .runs import Prepared, Run, Runner
 
 ONSET_SIGMA = 3.0  # smoothed normalised residual (in noise-floor units) above which a deviation starts
 ONSET_HOLD = 3  # samples it must stay above
@@ -162,17 +162,17 @@ def _round(value, digits):
 
 
 # --- the entry function -----------------------------------------------------------------------------------------
-def locate(engine: Engine, indices: Sequence[int] | None = None, model=()) -> Localisation:
+def locate(runner: Runner, indices: Sequence[int] | None = None, model=()) -> Localisation:
     """Replay every trial (or `indices`) with `model` (default: nothing added) and locate the mismatch."""
-    indices = list(range(len(engine.prepared))) if indices is None else list(indices)
-    runs = engine.run(tuple(model), indices, tracks=True, contacts=True)
+    indices = list(range(len(runner.prepared))) if indices is None else list(indices)
+    runs = runner.run(tuple(model), indices, tracks=True, contacts=True)
     located, forces = [], []
     for i, run in zip(indices, runs):
-        p = engine.prepared[i]
+        p = runner.prepared[i]
         if run.failed is not None:
             continue
         for s in p.series:
-            located.append(locate_object(p, s, run, engine.odb))
+            located.append(locate_object(p, s, run, runner.odb))
         if p.force is not None and run.force_residual is not None:
             forces.append(locate_force(p, run))
     return Localisation(tuple(located), tuple(runs), tuple(forces))
@@ -325,7 +325,7 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
         f["onset_xy_obs"] = tuple(float(v) for v in s.xyz[onset_i, :2])
         f["onset_xy_sim"] = tuple(float(v) for v in sim_xyz[onset_i, :2])
         geometry = odb.get(p.world.objects[s.object].type).geometry
-        pose = Pose(tuple(s.xyz[onset_i]), _quat(s.R[onset_i]))
+        pose = Pose(tuple(s.xyz[onset_i]), rotation_to_quat(s.R[onset_i]))
         f["reach"] = float(support(geometry, pose, np.array([d[0], d[1], 0.0])) - float(np.dot(s.xyz[onset_i, :2], d)))
     return f
 
@@ -340,9 +340,3 @@ def _crossing(t: np.ndarray, d: np.ndarray, level: float) -> float | None:
         return float(t[0])
     w = (level - d[k - 1]) / max(d[k] - d[k - 1], 1e-12)
     return float(t[k - 1] + np.clip(w, 0.0, 1.0) * (t[k] - t[k - 1]))
-
-
-def _quat(R: np.ndarray):
-    from ..values import rotation_to_quat
-
-    return rotation_to_quat(R)

@@ -12,25 +12,17 @@ import numpy as np
 
 from ..errors import DiagnosisError
 from ..odb import ObjectDatabase
-from ..sim.scene import SimConfig
-from ..sim.shapes import mass_properties
-from .effects import Applied
+from ..params import Model, Parameter, ParameterSet, kind_named, save_param_file
+from ..rollout.executors import Executor, make_executor
+from ..rollout.trials import Trial
 from .identify import Identification, Options, identify
 from .locate import Localisation, locate
-from .report import (
-    MAX_RESIDUAL_PLOTS,
-    diagnosis_json,
-    plot_paths,
-    plot_residuals,
-    plot_scores,
-    report_markdown,
-    write_outputs,
-)
-from .scenefile import save_scene_file
-from .simulation import Engine, default_workers, prepare
+from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, plot_paths, plot_residuals, plot_scores, report_markdown,
+                     write_outputs)
+from .runs import Runner, default_workers, prepare
 
 RESIDUAL_RATE = 25.0  # Hz at which observed and simulated poses are compared
-SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
+SCENE_FILE = "scene.yaml"
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,38 +44,44 @@ def held_out_indices(n: int, held_out: int | None) -> list[int]:
     return sorted({int(round(k)) for k in np.linspace(n - 1, 0, held_out + 2)[:-1][:held_out]})
 
 
-def run_diagnosis(trials: Sequence[Any], odb: ObjectDatabase, out: str | Path | None, *,
+def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path | None, *,
                   held_out: int | None = None, workers: int | None = None, options: Options = Options(),
-                  config: SimConfig = SimConfig(), plots: bool = True,
+                  plots: bool = True, executor: Executor | None = None,
                   log: Callable[[str], None] | None = None) -> DiagnosisRun:
-    """Diagnose `trials` (`bridge.fit.trials.Trial` values); write outputs under `out` when given."""
+    """Diagnose `trials`; write outputs under `out` when given. Simulations run on `executor` (default: a process
+    pool of `workers`, serial for one)."""
     started = time.perf_counter()
     if not trials:
         raise DiagnosisError("no recordings to diagnose")
     prepared = [prepare(t, odb, RESIDUAL_RATE) for t in trials]
     held = held_out_indices(len(prepared), held_out)
     train = [i for i in range(len(prepared)) if i not in held]
-    with Engine(prepared, odb, config=config, sample_rate=SAMPLE_RATE,
-                workers=default_workers() if workers is None else workers) as engine:
-        ident = identify(engine, train, held, options, log=log)
+    n = default_workers() if workers is None else workers
+    own = executor is None
+    executor = executor or make_executor("serial" if n == 1 else "process", odb, workers=n)
+    try:
+        runner = Runner(prepared, odb, executor)
+        ident = identify(runner, train, held, options, log=log)
         after = None
         if out is not None and plots and ident.verdict != "none":
-            after = locate(engine, list(range(len(prepared))), model=ident.winner.model)
+            after = locate(runner, list(range(len(prepared))), model=ident.winner.model)
+    finally:
+        if own:
+            executor.close()
     files: dict[str, Path] = {}
     data: dict[str, Any]
+    failures = {"count": len(runner.failures), "first": [f"{t}: {m}" for t, m in runner.failures[:3]]}
     if out is None:
-        data = diagnosis_json(ident)
+        data = diagnosis_json(ident, failures=failures)
         return DiagnosisRun(ident, data, files, after)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    scene_path = param_path = None
+    scene_path = None
     if ident.verdict != "none":
-        scene_path = save_scene_file(out / "scene.yaml", ident.winner.model,
+        scene_path = save_scene_file(out / SCENE_FILE, ident.winner.model, odb,
                                      {"verdict": ident.verdict, "target": ident.winner.target,
                                       "recordings": list(ident.train) + list(ident.held_out)})
-        param_path = save_param_equivalent(out / "params.yaml", ident.winner.model, prepared[0].world, odb)
-    data = diagnosis_json(ident, scene_file=scene_path.name if scene_path else None,
-                          param_file=param_path.name if param_path else None)
+    data = diagnosis_json(ident, scene_file=scene_path.name if scene_path else None, failures=failures)
     data["seconds"] = round(time.perf_counter() - started, 2)
     figures: list[str] = []
     if plots:
@@ -92,9 +90,16 @@ def run_diagnosis(trials: Sequence[Any], odb: ObjectDatabase, out: str | Path | 
     files.update({"json": json_path, "report": md_path})
     if scene_path:
         files["scene"] = scene_path
-    if param_path:
-        files["params"] = param_path
     return DiagnosisRun(ident, data, files, after)
+
+
+def save_scene_file(path: Path, model: Model, odb: ObjectDatabase, diagnosis: dict[str, Any]) -> Path:
+    """The diagnosed model as a parameter file of fixed values, each entry labelled with its effect: `bridge
+    infer`/`view`/`demo --scene` replay with it, `bridge fit --scene` fits on top of it, `--params` takes it too."""
+    entries = tuple(Parameter(kind_named(s.kind), s.target, value=s.value, effect=s.effect) for s in model)
+    header = ("bridge scene file (bridge diagnose): the fitted ordinary parameters and the diagnosed effect, as\n"
+              "fixed parameter values; use it with --scene (infer, view, demo, fit) or --params")
+    return save_param_file(path, ParameterSet(entries, str(path)), header=header, record={"diagnosis": diagnosis})
 
 
 def _plots(ident: Identification, after: Localisation | None, out: Path) -> list[Path]:
@@ -110,48 +115,11 @@ def _plots(ident: Identification, after: Localisation | None, out: Path) -> list
     return figures
 
 
-def save_param_equivalent(path: Path, model: Sequence[Applied], world, odb: ObjectDatabase) -> Path | None:
-    """The model as a `bridge fit` parameter file (fixed values), when every effect maps onto a parameter kind
-    (friction, mass spread like the object's own, com without a mass change, latency, joint offsets; a surface
-    tilt as its tangential force); None otherwise."""
-    from ..fit.params import parse_params, save_param_file
-
-    entries = []
-    for a in model:
-        v = a.values()
-        if a.effect == "friction":
-            entries.append({"kind": "friction", "target": a.target, "value": v["mu"]})
-        elif a.effect == "mass" and abs(v.get("spread", 1.0) - 1.0) < 0.05:  # the kind scales the inertia
-            entries.append({"kind": "mass", "target": a.target, "value": v["mass"]})
-        elif a.effect == "com_offset" and abs(v.get("mass", 0.0) / mass_properties(odb, 
-                world.objects[a.target].type).mass - 1.0) < 0.01:  # a changed mass here keeps the inertia
-            com = mass_properties(odb, world.objects[a.target].type).com
-            entries += [{"kind": "com_x", "target": a.target, "value": float(com[0] + v["dx"])},
-                        {"kind": "com_y", "target": a.target, "value": float(com[1] + v["dy"])}]
-        elif a.effect == "latency":
-            entries.append({"kind": "latency", "target": a.target, "value": v["dt"]})
-        elif a.effect == "pusher_offset":
-            entries += [{"kind": "joint_offset", "target": j, "value": x} for j, x in v.items()]
-        elif a.effect == "surface_tilt":
-            entries += [{"kind": "surface_slope_x", "target": a.target, "value": v["slope_x"]},
-                        {"kind": "surface_slope_y", "target": a.target, "value": v["slope_y"]}]
-        else:
-            return None
-    if not entries:
-        return None
-    spec = parse_params({"params": entries}, str(path))
-    header = ("the diagnosed model as a bridge fit / infer --params file (fixed values)"
-              + ("; the surface tilt enters as its tangential force only" if any(a.effect == "surface_tilt"
-                                                                                  for a in model) else ""))
-    save_param_file(path, spec, header=header)
-    return path
-
-
 def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | Path, *, held_out: int | None = None,
                    workers: int | None = None, effects: Sequence[str] | None = None, max_duration: float | None = None,
                    quiet: bool = False) -> DiagnosisRun:
     """Load recordings (folders, MIT .h5 files, folders of .h5 files) and diagnose them."""
-    from ..fit.trials import load_trials
+    from ..rollout.trials import load_trials
 
     # MIT pushes at their full motion-capture rate: the noise is estimated from every sample, the residual is
     # compared at RESIDUAL_RATE

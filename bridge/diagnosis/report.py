@@ -20,8 +20,8 @@ def load_schema() -> dict:
     return json.loads(SCHEMA_PATH.read_text())
 
 
-def diagnosis_json(ident: Identification, *, scene_file: str | None = None, param_file: str | None = None,
-                   noise: Mapping[str, float] | None = None) -> dict[str, Any]:
+def diagnosis_json(ident: Identification, *, scene_file: str | None = None, noise: Mapping[str, float] | None = None,
+                   failures: Mapping[str, Any] | None = None) -> dict[str, Any]:
     winner, runner = ident.winner, ident.runner_up
     none = next(s for s in ident.ranked if s.effect == "none")
     error: dict[str, Any] = {"before": {**_error_json(none.error), "rms_sigma": round(none.rms, 4)},
@@ -60,7 +60,7 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, para
         "noise": dict(noise or noise_summary(ident.localisation)),
         "correlation_time": round(ident.tau, 3),
         "scene_file": scene_file,
-        "param_file": param_file,
+        "simulation_failures": dict(failures or {"count": 0, "first": []}),
         "notes": list(ident.notes),
         "simulations": int(ident.simulations),
         "seconds": round(ident.seconds, 2),

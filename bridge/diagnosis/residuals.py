@@ -1,5 +1,5 @@
-"""Observed tracks as arrays, their measurement noise estimated from the data, and the residual between a
-simulated and an observed track.
+"""Observed tracks as arrays with their measurement noise estimated from the data: what the diagnosis divides
+residuals by (`bridge.rollout.compare` computes them).
 
 Residual components (world frame): position dx, dy, dz (m) and rotation rx, ry, rz (rad, the rotation vector of
 R_obs R_sim^T: rz is the yaw difference, rx and ry the tilt). A component the observations do not really measure
@@ -75,27 +75,6 @@ def observed_series(track: ObservedTrack, rate: float) -> ObservedSeries:
             last = t
     keep = np.array(keep)
     return ObservedSeries(track.object, times[keep], xyz[keep], R[keep], sigma, measured, estimated)
-
-
-def sample_track(sim_times: np.ndarray, track: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Simulated positions (n, 3) and rotation matrices (n, 3, 3) at `times`, interpolated from a (T, 7) track."""
-    t = np.clip(times, sim_times[0], sim_times[-1])
-    xyz = np.column_stack([np.interp(t, sim_times, track[:, k]) for k in range(3)])
-    quats = track[:, 3:7].copy()
-    for k in range(1, len(quats)):  # one hemisphere, so the linear blend below is the short way
-        if quats[k] @ quats[k - 1] < 0:
-            quats[k] = -quats[k]
-    q = np.column_stack([np.interp(t, sim_times, quats[:, k]) for k in range(4)])
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    R = Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix()
-    return xyz, R
-
-
-def residual(obs: ObservedSeries, sim_xyz: np.ndarray, sim_R: np.ndarray) -> np.ndarray:
-    """(n, 6): observed minus simulated position, and the rotation vector of R_obs R_sim^T (world frame)."""
-    dp = obs.xyz - sim_xyz
-    dr = Rotation.from_matrix(obs.R @ np.swapaxes(sim_R, 1, 2)).as_rotvec()
-    return np.column_stack([dp, dr])
 
 
 def normalised(obs: ObservedSeries, res: np.ndarray) -> np.ndarray:

@@ -1,123 +1,36 @@
-"""Fitting effect parameters on trials: a normalised parameter space and a Levenberg-Marquardt fit whose
-finite-difference Jacobian is evaluated as one batch (so a process pool runs it in parallel).
+"""Fitting models on the training recordings: cached runs, a fit in normalised coordinates with any of the shared
+optimisers (`bridge.optim`; Levenberg-Marquardt by default, its Jacobian one batch on the executor), and the
+criteria that compare fitted models (the paper's error of a run, the residual's correlation time, BIC).
 
-Parameters are searched in normalised units x = (value - null) / scale: the null value (no effect) is 0 and one
-unit is the parameter's typical size, which is also the finite-difference step (large enough to see through
-the small, non-smooth jitter of contact simulation).
+Parameters are searched in normalised units x = (value - null) / step (`ParameterSet.to_normal`): the null value
+(the world model's) is 0 and one unit is the parameter's typical size, also the finite-difference step.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import Sequence
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..fit.error import DEFAULT_C, PoseError
-from .effects import Applied, ParamSpec
-from .simulation import Engine, Model, Run, vector_of
-
-FD_STEP = 1.0  # normalised units
-
-
-@dataclass(frozen=True)
-class Part:
-    """One effect being fitted: which, on what, its parameter specs."""
-
-    effect: str
-    target: str
-    specs: tuple[ParamSpec, ...]
-
-
-class Space:
-    """The parameters of `parts` on top of a fixed `base` model."""
-
-    def __init__(self, parts: Sequence[Part], base: Model = ()):
-        self.parts = tuple(parts)
-        self.base = tuple(base)
-        self.specs = [s for p in self.parts for s in p.specs]
-        self.null = np.array([s.null for s in self.specs])
-        self.scale = np.array([s.scale for s in self.specs])
-        self.lower = (np.array([s.lower for s in self.specs]) - self.null) / self.scale
-        self.upper = (np.array([s.upper for s in self.specs]) - self.null) / self.scale
-
-    @property
-    def dim(self) -> int:
-        return len(self.specs)
-
-    def to_x(self, values: Sequence[Mapping[str, float]]) -> np.ndarray:
-        flat = [values[i].get(s.name, s.null) for i, p in enumerate(self.parts) for s in p.specs]
-        return np.clip((np.array(flat, dtype=float) - self.null) / self.scale, self.lower, self.upper)
-
-    def values(self, x: np.ndarray) -> list[dict[str, float]]:
-        v = self.null + np.asarray(x, dtype=float) * self.scale
-        out, k = [], 0
-        for p in self.parts:
-            out.append({s.name: float(v[k + j]) for j, s in enumerate(p.specs)})
-            k += len(p.specs)
-        return out
-
-    def applied(self, x: np.ndarray) -> tuple[Applied, ...]:
-        return tuple(Applied.of(p.effect, p.target, vals) for p, vals in zip(self.parts, self.values(x)))
-
-    def model(self, x: np.ndarray) -> Model:
-        return self.base + self.applied(x)
-
-
-@dataclass(frozen=True, eq=False)
-class FitResult:
-    space: Space
-    x: np.ndarray
-    vector: np.ndarray
-    jacobian: np.ndarray | None
-    runs: tuple[Run, ...]
-    evaluations: int  # models evaluated (each on every training trial)
-
-    @property
-    def chi2(self) -> float:
-        return float(self.vector @ self.vector)
-
-    @property
-    def n(self) -> int:
-        return int(self.vector.size)
-
-    def values(self) -> list[dict[str, float]]:
-        return self.space.values(self.x)
-
-    def model(self) -> Model:
-        return self.space.model(self.x)
-
-    def std(self, inflate: float = 1.0) -> list[dict[str, float]]:
-        """1-sigma parameter uncertainty from the curvature: cov = (J^T J)^-1 * max(1, reduced chi^2) * inflate."""
-        if self.jacobian is None or self.space.dim == 0:
-            return [{s.name: math.nan for s in p.specs} for p in self.space.parts]
-        J = self.jacobian
-        dof = max(1, self.n - self.space.dim)
-        s2 = max(1.0, self.chi2 / dof) * inflate
-        try:
-            cov = np.linalg.pinv(J.T @ J) * s2
-            sd = np.sqrt(np.maximum(np.diag(cov), 0.0)) * self.space.scale
-        except np.linalg.LinAlgError:
-            sd = np.full(self.space.dim, math.nan)
-        out, k = [], 0
-        for p in self.space.parts:
-            out.append({s.name: float(sd[k + j]) for j, s in enumerate(p.specs)})
-            k += len(p.specs)
-        return out
+from ..optim import minimise
+from ..optim.lm import gauss_newton_step, jacobian, levenberg_marquardt
+from ..params import Model, ParameterSet
+from ..rollout.compare import DEFAULT_C, PoseError, error_of_residuals
+from .runs import Run, Runner, vector_of
 
 
 class Evaluator:
     """Runs models on the training trials, remembering every result."""
 
-    def __init__(self, engine: Engine, indices: Sequence[int]):
-        self.engine, self.indices = engine, list(indices)
+    def __init__(self, runner: Runner, indices: Sequence[int]):
+        self.runner, self.indices = runner, list(indices)
         self.cache: dict[Model, tuple[Run, ...]] = {}
 
     def runs_many(self, models: Sequence[Model]) -> list[tuple[Run, ...]]:
         todo = [m for m in dict.fromkeys(models) if m not in self.cache]
         if todo:
-            for m, runs in zip(todo, self.engine.run_many(todo, self.indices)):
+            for m, runs in zip(todo, self.runner.run_many(todo, self.indices)):
                 self.cache[m] = tuple(runs)
         return [self.cache[m] for m in models]
 
@@ -131,104 +44,85 @@ class Evaluator:
         v = self.vector(model)
         return float(v @ v)
 
-
-def jacobian(ev: Evaluator, space: Space, x: np.ndarray, f0: np.ndarray) -> np.ndarray:
-    """Forward differences with a step of FD_STEP normalised units (backward at an upper bound), one batch."""
-    points = []
-    for j in range(space.dim):
-        xj = np.array(x, dtype=float)
-        h = FD_STEP if xj[j] + FD_STEP <= space.upper[j] else -FD_STEP
-        xj[j] += h
-        points.append((xj, h))
-    vectors = [vector_of(r) for r in ev.runs_many([space.model(p) for p, _ in points])]
-    J = np.zeros((f0.size, space.dim))
-    for j, ((_, h), v) in enumerate(zip(points, vectors)):
-        if v.size == f0.size:
-            J[:, j] = (v - f0) / h
-    return J
+    def residuals(self, space: ParameterSet):
+        """The batch residual of `space` in normalised coordinates, for the optimisers."""
+        def batch(xs: Sequence[np.ndarray]) -> list[np.ndarray]:
+            return [vector_of(r) for r in self.runs_many([space.model(space.from_normal(x)) for x in xs])]
+        return batch
 
 
-def fit(ev: Evaluator, space: Space, x0: np.ndarray, *, max_iterations: int = 6) -> FitResult:
-    """Levenberg-Marquardt (scipy's trust-region reflective, bounded) from x0; keeps the best point seen."""
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    space: ParameterSet
+    x: np.ndarray  # normalised coordinates
+    vector: np.ndarray
+    jacobian: np.ndarray | None
+    runs: tuple[Run, ...]
+    evaluations: int  # models evaluated (each on every training trial)
+
+    @property
+    def chi2(self) -> float:
+        return float(self.vector @ self.vector)
+
+    @property
+    def n(self) -> int:
+        return int(self.vector.size)
+
+    def values(self) -> dict[str, float]:
+        return self.space.as_dict(self.space.from_normal(self.x))
+
+    def model(self) -> Model:
+        return self.space.model(self.space.from_normal(self.x))
+
+    def std(self, inflate: float = 1.0) -> dict[str, float]:
+        """1-sigma parameter uncertainty from the curvature: cov = (J^T J)^-1 * max(1, reduced chi^2) * inflate."""
+        if self.jacobian is None or self.space.dim == 0:
+            return {n: math.nan for n in self.space.names}
+        J = self.jacobian
+        dof = max(1, self.n - self.space.dim)
+        s2 = max(1.0, self.chi2 / dof) * inflate
+        try:
+            cov = np.linalg.pinv(J.T @ J) * s2
+            sd = np.sqrt(np.maximum(np.diag(cov), 0.0)) * self.space.steps
+        except np.linalg.LinAlgError:
+            sd = np.full(self.space.dim, math.nan)
+        return {n: float(v) for n, v in zip(self.space.names, sd)}
+
+
+def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: int = 6,
+        optimizer: str = "lm") -> FitResult:
+    """Fit `space` from x0 (normalised) with `optimizer` (`lm`: Levenberg-Marquardt, scipy's bounded trust-region
+    solver; `cmaes`/`es`: `max_iterations` generations); keeps the best point seen."""
     before = len(ev.cache)
     if space.dim == 0:
-        runs = ev.runs(space.model(np.zeros(0)))
+        runs = ev.runs(space.model())
         return FitResult(space, np.zeros(0), vector_of(runs), None, runs, len(ev.cache) - before)
-    x0 = np.clip(np.asarray(x0, dtype=float), space.lower, space.upper)
-    seen: dict[bytes, np.ndarray] = {}
-    last_J: dict[bytes, np.ndarray] = {}
-
-    def fun(x):
-        key = np.asarray(x, dtype=float).tobytes()
-        if key not in seen:
-            seen[key] = ev.vector(space.model(x))
-        return seen[key]
-
-    def jac(x):
-        key = np.asarray(x, dtype=float).tobytes()
-        if key not in last_J:
-            last_J[key] = jacobian(ev, space, np.asarray(x, dtype=float), fun(x))
-        return last_J[key]
-
-    try:
-        least_squares(fun, x0, jac=jac, bounds=(space.lower, space.upper), method="trf", x_scale=1.0,
-                      max_nfev=max_iterations, xtol=1e-3, ftol=1e-4, gtol=1e-6)
-    except (ValueError, np.linalg.LinAlgError):
-        pass  # keep the best point evaluated so far
-    best_key = min(seen, key=lambda k: float(seen[k] @ seen[k])) if seen else x0.tobytes()
-    x_best = np.frombuffer(best_key, dtype=float).copy() if seen else x0
-    f_best = fun(x_best)
-    J = last_J.get(best_key)
-    if J is None:
-        J = jacobian(ev, space, x_best, f_best)
-    return FitResult(space, x_best, f_best, J, ev.runs(space.model(x_best)), len(ev.cache) - before)
+    lower, upper = space.normal_bounds()
+    residuals = ev.residuals(space)
+    if optimizer == "lm":
+        result = levenberg_marquardt(residuals, x0, lower, upper, max_iterations=max_iterations)
+        x, f, J = result.x, result.vector, result.jacobian
+    else:
+        found = minimise(optimizer, lambda values: [vector_of(r) for r in ev.runs_many([space.model(v) for v in values])],
+                         space, space.from_normal(x0), iterations=max_iterations)
+        x, f = space.to_normal(found.values), found.vector
+        J = jacobian(residuals, x, f, upper)
+    return FitResult(space, x, f, J, ev.runs(space.model(space.from_normal(x))), len(ev.cache) - before)
 
 
-def gauss_newton_step(ev: Evaluator, space: Space, x0: np.ndarray) -> tuple[np.ndarray, float]:
-    """A cheap screen from x0: one bounded Gauss-Newton step (and a shorter one), then, if neither lowers the
-    chi^2, steps of 1 and 3 units against the gradient; returns the best point and its chi^2."""
-    f0 = ev.vector(space.model(x0))
-    c0 = float(f0 @ f0)
-    J = jacobian(ev, space, x0, f0)
-    if not np.any(J):
-        return x0, c0
-    step, *_ = np.linalg.lstsq(J, -f0, rcond=None)
-    length = float(np.linalg.norm(step))
-    if length > 8.0:  # trust region: the linearisation holds a few scales at most
-        step *= 8.0 / length
-    tries = [np.clip(x0 + step, space.lower, space.upper), np.clip(x0 + 0.3 * step, space.lower, space.upper)]
-    best_x, best_c = x0, c0
-    for x in tries:
-        c = ev.chi2(space.model(x))
-        if c < best_c:
-            best_x, best_c = x, c
-    if best_c < c0:
-        return best_x, best_c
-    g = -(J.T @ f0)
-    g = g / (np.linalg.norm(g) or 1.0)
-    for size in (1.0, 3.0):
-        x = np.clip(x0 + size * g, space.lower, space.upper)
-        c = ev.chi2(space.model(x))
-        if c < best_c:
-            best_x, best_c = x, c
-    return best_x, best_c
+def screen(ev: Evaluator, space: ParameterSet, x0: np.ndarray) -> tuple[np.ndarray, float]:
+    """One bounded Gauss-Newton step from x0 (a cheap screen, `bridge.optim.lm.gauss_newton_step`)."""
+    lower, upper = space.normal_bounds()
+    return gauss_newton_step(ev.residuals(space), np.asarray(x0, dtype=float), lower, upper)
 
 
 # --- errors and evidence --------------------------------------------------------------------------------------
 def pose_error_of(runs: Sequence[Run], c: float = DEFAULT_C) -> PoseError | None:
     """The paper's error (eq. 1-4) over every observed sample of `runs`, from their residuals."""
-    e_t2, e_R2 = [], []
-    for r in runs:
-        for res in r.residuals.values():
-            if not np.all(np.isfinite(res)):
-                return None
-            e_t2.append(np.sum(res[:, :3] ** 2, axis=1))
-            e_R2.append(np.sum(res[:, 3:] ** 2, axis=1))
-    if not e_t2:
+    residuals = [res for r in runs for res in r.residuals.values()]
+    if not residuals or not all(np.all(np.isfinite(res)) for res in residuals):
         return None
-    t2, R2 = np.concatenate(e_t2), np.concatenate(e_R2)
-    return PoseError(float(np.sqrt(t2.mean())), float(np.sqrt(R2.mean())), float(np.sqrt((t2 + c * R2).mean())),
-                     int(t2.size))
+    return error_of_residuals(residuals, c)
 
 
 def correlation_time(runs: Sequence[Run]) -> float:

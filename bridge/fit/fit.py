@@ -4,8 +4,10 @@ over the free parameters, checkpoint every generation, and score the result befo
     with make_executor("process", odb, workers=2) as ex:
         result = fit_parameters(trials, spec, odb=odb, executor=ex, optimizer="cmaes", seed=1, generations=30)
 
-The optimiser works in [0, 1]^D (each free parameter's bounds mapped linearly, or logarithmically for
-`scale: log`); its history is turned back into parameter units for the report. "Before" is the start values.
+The evolution strategies work in [0, 1]^D (each free parameter's bounds mapped linearly, or logarithmically for
+`scale: log`); Levenberg-Marquardt (`optimizer="lm"`) in normalised coordinates on the residual whose squared
+norm is the same error, one Jacobian batch per "generation". The history is turned back into parameter units for
+the report. "Before" is the start values.
 """
 from __future__ import annotations
 
@@ -18,15 +20,17 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..errors import FitError
-from ..odb import ObjectDatabase
-from ..sim.scene import SimConfig
 from ..files import write_atomic
-from .error import DEFAULT_C, PoseError
-from .executors import FitExecutor, make_executor
-from .optimizers import GenerationRecord, make_optimizer, restore_optimizer
-from .params import ParameterSpec, check_targets
-from .rollout import TrialError
-from .trials import Trial, check_trials
+from ..odb import ObjectDatabase
+from ..optim import NAMES, GenerationRecord, make_optimizer, restore_optimizer
+from ..optim.base import Progress as OptimizerProgress
+from ..optim.base import StopRule
+from ..optim.lm import levenberg_marquardt
+from ..params import ParameterSet, check_targets
+from ..rollout.compare import DEFAULT_C, PoseError
+from ..rollout.executors import Executor, make_executor
+from ..rollout.trials import Trial
+from .evaluate import Evaluation, TrialError, evaluate
 
 CHECKPOINT_FILE = "checkpoint.json"
 CHECKPOINT_FORMAT = 1
@@ -74,7 +78,7 @@ class Progress:
 
 @dataclass(frozen=True)
 class FitResult:
-    spec: ParameterSpec
+    spec: ParameterSet
     values: Mapping[str, float]  # fitted free parameters, parameter units
     start: Mapping[str, float]
     fit_trials: tuple[str, ...]
@@ -100,7 +104,7 @@ class FitResult:
     notes: tuple[str, ...] = field(default=())
 
     @property
-    def fitted_spec(self) -> ParameterSpec:
+    def fitted_spec(self) -> ParameterSet:
         return self.spec.fixed_at(self.values)
 
 
@@ -119,18 +123,30 @@ def split_hold_out(names: Sequence[str], hold_out: int | None, seed: int) -> tup
     return (tuple(nm for i, nm in enumerate(names) if i not in held), tuple(nm for i, nm in enumerate(names) if i in held))
 
 
-def fit_parameters(trials: Sequence[Trial], spec: ParameterSpec, *, odb: ObjectDatabase, optimizer: str = "cmaes",
+def check_trials(trials: Sequence[Trial]) -> None:
+    """Trials must be Trial values with at least one observed pose after t = 0."""
+    if not trials:
+        raise FitError("no trials to fit")
+    for trial in trials:
+        if not isinstance(trial, Trial):
+            raise FitError(f"expected Trial values, got {type(trial).__name__}")
+        if not any(float(tr.times[-1]) > 0 for tr in trial.observations):
+            raise FitError("no observation after t = 0: nothing to compare the simulation with",
+                           source=str(trial.source))
+
+
+def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDatabase, optimizer: str = "cmaes",
                    seed: int = 0, generations: int = 30, popsize: int | None = None, sigma0: float = 0.25,
-                   executor: FitExecutor | None = None, hold_out: int | None = None,
+                   executor: Executor | None = None, hold_out: int | None = None,
                    checkpoint: str | Path | None = None, resume: bool = False, patience: int = 8, tol: float = 1e-6,
-                   target_error: float | None = None, c: float = DEFAULT_C, config: SimConfig = SimConfig(),
+                   target_error: float | None = None, c: float = DEFAULT_C,
                    progress: Callable[[Progress], None] | None = None) -> FitResult:
     """Fit the free parameters of `spec` to `trials` (see the module docstring).
 
     `checkpoint` is a folder: after every generation DIR/checkpoint.json holds the optimiser and the bookkeeping;
-    `resume` continues from it (it must be the same fit: trials, parameters, optimiser, seed). Early stop: no
-    improvement of the best error by more than `tol` (m) for `patience` generations, or the best error at or
-    below `target_error`.
+    `resume` continues from it (it must be the same fit: trials, parameters, optimiser, seed; not for "lm").
+    Early stop: no improvement of the best error by more than `tol` (m) for `patience` generations, or the best
+    error at or below `target_error`.
     """
     started = wallclock.perf_counter()
     check_trials(trials)
@@ -142,6 +158,10 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSpec, *, odb: ObjectD
         raise FitError("trial names must be unique (load_trials makes them so)")
     if not isinstance(generations, (int, np.integer)) or generations < 1:
         raise FitError(f"generations must be a whole number >= 1, got {generations!r}")
+    if optimizer not in NAMES:
+        raise FitError(f"unknown optimizer {optimizer!r}; valid: {', '.join(NAMES)}")
+    if optimizer == "lm" and resume:
+        raise FitError("a Levenberg-Marquardt fit keeps no checkpoint to resume from; use es or cmaes")
     fit_names, held_names = split_hold_out([t.name for t in trials], hold_out, seed)
     fit_set, held_set = [by_name[n] for n in fit_names], [by_name[n] for n in held_names]
     own_executor = executor is None
@@ -153,27 +173,37 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSpec, *, odb: ObjectD
         if state is None:
             if resume and path is not None and not path.is_file():
                 raise FitError("no checkpoint to resume from", source=str(path))
-            opt = make_optimizer(optimizer, spec.to_unit(spec.start_values()), sigma0, seed,
-                                 **_optimizer_options(optimizer, popsize, generations, patience, tol, target_error))
-            start_rows = executor.evaluate(fit_set + held_set, spec, [spec.start_values()], c=c, config=config)[0]
+            options = _optimizer_options(optimizer, popsize, generations, patience, tol, target_error)
+            opt = (_LeastSquaresRun(StopRule(**options)) if optimizer == "lm" else
+                   make_optimizer(optimizer, spec.to_unit(spec.start_values()), sigma0, seed, **options))
+            start_rows = evaluate(executor, fit_set + held_set, spec, [spec.start_values()], c=c)[0].errors
             state = _RunState(opt, tuple(start_rows), simulations=len(start_rows))
         opt = state.optimizer
         max_generations = int(opt.state()["options"]["max_generations"])
-        while not opt.done:
-            candidates = opt.ask()
-            values = [spec.from_unit(u) for u in candidates]
-            rows = executor.evaluate(fit_set, spec, values, c=c, config=config)
-            merged = [PoseError.merge(e.error for e in row) for row in rows]
-            opt.tell(candidates, [m.e for m in merged])
+
+        def generation(values: list[np.ndarray], units: list[np.ndarray]) -> list[Evaluation]:
+            """Evaluate one batch on the fitted trials, tell the optimiser, record, checkpoint, report."""
+            batch = evaluate(executor, fit_set, spec, values, c=c)
+            rows = [list(b.errors) for b in batch]
+            merged = [b.error for b in batch]
+            opt.tell(units, [m.e for m in merged])
             state.record(spec, values, merged, rows, opt, wallclock.perf_counter() - started)
-            if path is not None:
+            if path is not None and optimizer != "lm":
                 state.save(path, fingerprint)
             if progress is not None:
                 last = state.generation_errors[-1]
-                progress(Progress(opt.generation, max_generations, last.best.e, last.generation_best.e, opt.evaluations, state.simulations,
-                                  state.failures, wallclock.perf_counter() - started))
+                progress(Progress(opt.generation, max_generations, last.best.e, last.generation_best.e,
+                                  opt.evaluations, state.simulations, state.failures,
+                                  wallclock.perf_counter() - started))
+            return batch
+
+        if optimizer == "lm":
+            opt.run(spec, generation)
+        while not opt.done:
+            candidates = opt.ask()
+            generation([spec.from_unit(u) for u in candidates], candidates)
         best = spec.from_unit(opt.best_x)
-        after_rows = executor.evaluate(fit_set + held_set, spec, [best], c=c, config=config)[0]
+        after_rows = evaluate(executor, fit_set + held_set, spec, [best], c=c)[0].errors
     finally:
         if own_executor:
             executor.close()
@@ -201,7 +231,7 @@ def _optimizer_options(name: str, popsize: int | None, generations: int, patienc
                        target_error: float | None) -> dict[str, Any]:
     options: dict[str, Any] = {"max_generations": int(generations), "patience": int(patience), "tol": float(tol),
                                "target_error": target_error}
-    if popsize is not None:
+    if popsize is not None and name != "lm":
         if not isinstance(popsize, (int, np.integer)) or popsize < 2:
             raise FitError(f"popsize must be a whole number >= 2, got {popsize!r}")
         if name == "es":
@@ -212,9 +242,61 @@ def _optimizer_options(name: str, popsize: int | None, generations: int, patienc
     return options
 
 
-def _fingerprint(spec: ParameterSpec, fit_names, held_names, optimizer: str, seed: int, c: float) -> dict[str, Any]:
+def _fingerprint(spec: ParameterSet, fit_names, held_names, optimizer: str, seed: int, c: float) -> dict[str, Any]:
     return {"params": spec.to_dict()["params"], "fit_trials": list(fit_names), "held_out": list(held_names),
             "optimizer": optimizer, "seed": seed, "c": c}
+
+
+class _LeastSquaresRun:
+    """Levenberg-Marquardt in the fit driver's terms: each residual batch it asks for (a point, or a Jacobian's
+    columns) is one "generation" of the history; the solver itself runs inside `run`, not through ask/tell."""
+
+    name = "lm"
+
+    def __init__(self, rule: StopRule):
+        self.rule = rule
+        self._progress = OptimizerProgress(rule)
+        self.stop_reason: str | None = None
+
+    def run(self, spec: ParameterSet, generation: Callable) -> None:
+        lower, upper = spec.normal_bounds()
+
+        def residuals(xs: Sequence[np.ndarray]) -> list[np.ndarray]:
+            values = [spec.from_normal(x) for x in xs]
+            return [b.vector for b in generation(values, [spec.to_unit(v) for v in values])]
+
+        levenberg_marquardt(residuals, spec.to_normal(spec.start_values()), lower, upper,
+                            max_iterations=self.rule.max_generations)
+        self.stop_reason = f"Levenberg-Marquardt: {self.rule.max_generations} solver evaluations at most"
+
+    def tell(self, units: Sequence[np.ndarray], errors: Sequence[float]) -> None:
+        u = np.array(units, dtype=float)
+        e = np.asarray(errors, dtype=float)
+        best = np.argsort(e, kind="stable")[:max(1, len(e) // ES_PARENT_SHARE)]
+        self._progress.record(u, e, u[best], e[best], float("nan"))
+
+    def state(self) -> dict:
+        return {"name": self.name, "options": {"max_generations": self.rule.max_generations}}
+
+    @property
+    def done(self) -> bool:
+        return self.stop_reason is not None
+
+    @property
+    def generation(self) -> int:
+        return self._progress.generation
+
+    @property
+    def evaluations(self) -> int:
+        return self._progress.evaluations
+
+    @property
+    def best_x(self) -> np.ndarray | None:
+        return self._progress.best_x
+
+    @property
+    def history(self) -> tuple[GenerationRecord, ...]:
+        return tuple(self._progress.history)
 
 
 class _RunState:
@@ -230,7 +312,7 @@ class _RunState:
         self.best: tuple[PoseError, tuple[float, ...]] | None = (
             (self.generation_errors[-1].best, self.generation_errors[-1].best_values) if self.generation_errors else None)
 
-    def record(self, spec: ParameterSpec, values, merged: list[PoseError], rows, opt, elapsed: float) -> None:
+    def record(self, spec: ParameterSet, values, merged: list[PoseError], rows, opt, elapsed: float) -> None:
         e = np.array([m.e for m in merged])
         order = np.argsort(e, kind="stable")
         k = int(order[0])

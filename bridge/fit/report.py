@@ -10,13 +10,15 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..odb import ObjectDatabase
-from ..sim.scene import SimConfig
+from ..errors import SimulationFailure
 from ..files import write_atomic
-from .error import PoseError
+from ..odb import ObjectDatabase
+from ..params import save_param_file, trial_rollout
+from ..rollout.compare import PoseError
+from ..rollout.rollout import run_rollout
+from ..rollout.trials import Trial
+from .evaluate import sim_options
 from .fit import FitResult
-from .params import save_param_file
-from .trials import Trial
 
 PARAMS_FILE, FIT_FILE, TABLE_FILE = "params.yaml", "fit.json", "table1.md"
 FIG4_PARAMS, FIG4_ERRORS, TRAJECTORIES = "fig4_params.png", "fig4_errors.png", "trajectories.png"
@@ -24,8 +26,8 @@ MAX_TRAJECTORY_PLOTS = 4
 ORANGE, DARK_BLUE, LIGHT_BLUE = "#ff7f0e", "#1f3a93", "#9ecae1"
 
 
-def write_report(result: FitResult, out: str | Path, *, trials: Sequence[Trial] = (), odb: ObjectDatabase | None = None,
-                 config: SimConfig = SimConfig()) -> dict[str, Path]:
+def write_report(result: FitResult, out: str | Path, *, trials: Sequence[Trial] = (),
+                 odb: ObjectDatabase | None = None) -> dict[str, Path]:
     """Write every file of the report into `out`; returns them by name. Trajectories need `trials` and `odb`
     (a few extra replays, in this process)."""
     out = Path(out)
@@ -40,7 +42,7 @@ def write_report(result: FitResult, out: str | Path, *, trials: Sequence[Trial] 
     files[FIG4_ERRORS] = plot_errors(result, out / FIG4_ERRORS)
     pushes = [t for t in trials if t.is_planar_push]
     if pushes and odb is not None:
-        files[TRAJECTORIES] = plot_trajectories(result, pushes, odb, out / TRAJECTORIES, config=config)
+        files[TRAJECTORIES] = plot_trajectories(result, pushes, odb, out / TRAJECTORIES)
     return files
 
 
@@ -89,7 +91,7 @@ def _history_row(result: FitResult, record, errors) -> dict[str, Any]:
 
     return {"generation": record.generation, "evaluations": record.evaluations, "best_e": record.best_error,
             "generation_best_e": record.generation_best_error, "selected_mean_e": record.selected_mean_error,
-            "selected_p80_e": _finite(record.selected_p80_error), "sigma": record.sigma,
+            "selected_p80_e": _finite(record.selected_p80_error), "sigma": _finite(record.sigma),
             "best_e_t": errors.best.e_t, "best_e_R": errors.best.e_R,
             "selected_mean_e_t": errors.selected_e_t[0], "selected_p80_e_t": errors.selected_e_t[1],
             "selected_mean_e_R": errors.selected_e_R[0], "selected_p80_e_R": errors.selected_e_R[1],
@@ -148,7 +150,7 @@ def plot_parameters(result: FitResult, path: Path) -> Path:
         ax.set_title(p.name)
         ax.set_xlabel("generation")
         ax.set_ylabel(p.kind.unit or "value")
-        if p.scale == "log":
+        if p.spacing == "log":
             ax.set_yscale("log")
     for j in range(n, rows * cols):
         axes[j // cols][j % cols].axis("off")
@@ -186,13 +188,9 @@ def plot_errors(result: FitResult, path: Path) -> Path:
 
 
 # --- planar pushes -------------------------------------------------------------------------------------------
-def plot_trajectories(result: FitResult, trials: Sequence[Trial], odb: ObjectDatabase, path: Path, *,
-                      config: SimConfig = SimConfig()) -> Path:
+def plot_trajectories(result: FitResult, trials: Sequence[Trial], odb: ObjectDatabase, path: Path) -> Path:
     """Observed and simulated object paths (x-y, mm) before and after the fit, for a few held-out pushes (or
     fitted ones when none is held out). Data: Yu, Bauza, Fazeli, Rodriguez, IROS 2016."""
-    from ..errors import SimulationFailure
-    from .rollout import simulate_trial
-
     plt = _pyplot()
     held = [t for t in trials if t.name in result.held_out]
     chosen = (held or [t for t in trials if t.name in result.fit_trials])[:MAX_TRAJECTORY_PLOTS]
@@ -206,7 +204,8 @@ def plot_trajectories(result: FitResult, trials: Sequence[Trial], odb: ObjectDat
         ax.plot(obs[:, 0], obs[:, 1], color="black", lw=2, label="observed")
         for label, x, style in (("before", None, dict(color="grey", ls="--")), ("after", fitted, dict(color=ORANGE))):
             try:
-                sim = simulate_trial(trial, result.spec, x, odb=odb, config=config).tracks[track.object] * 1e3
+                rollout = trial_rollout(trial, result.spec.model(x), odb, strict=False)
+                sim = run_rollout(rollout, odb, sim_options(trial)).tracks[track.object] * 1e3
                 ax.plot(sim[:, 0], sim[:, 1], label=f"simulated {label}", **style)
             except SimulationFailure:
                 ax.plot([], [], label=f"simulated {label}: failed", **style)

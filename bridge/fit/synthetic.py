@@ -19,15 +19,16 @@ import numpy as np
 
 from ..names import build_name_map
 from ..odb import ObjectDatabase
+from ..params import KINDS, Parameter, ParameterSet, apply_model
 from ..recording.observations import ObservedPoses, ObservedTrack
 from ..recording.telemetry import Telemetry
-from ..sim.replay import ReplayOptions, replay
-from ..sim.scene import SimConfig
+from ..rollout.compare import sample_track
+from ..rollout.rollout import Rollout, run_rollout
+from ..rollout.trials import Trial
+from ..sim.simulate import SimOptions
 from ..values import Pose, rotation_to_quat
 from ..world import ObjectState, RobotState, WorldState
-from .params import PARAMETER_KINDS, ParameterSpec, ParamSpec, apply_params
-from .rollout import SAMPLE_RATE, scene_for, simulated_poses
-from .trials import Trial
+from .evaluate import SAMPLE_RATE
 
 TABLE_TOP = 0.75
 ROD_RADIUS = 0.00476
@@ -39,26 +40,25 @@ FIXED_VALUES = {"friction[small_box]": 0.9}  # grips the table harder than the b
 
 
 def synthesize_trial(name: str, world: WorldState, telemetry: Telemetry, odb: ObjectDatabase, *,
-                     spec: ParameterSpec | None = None, values: Sequence[float] | None = None,
-                     objects: Sequence[str] | None = None, rate: float = 25.0, settle: float = 0.0,
-                     config: SimConfig = SimConfig()) -> Trial:
+                     spec: ParameterSet | None = None, values: Sequence[float] | None = None,
+                     objects: Sequence[str] | None = None, rate: float = 25.0, settle: float = 0.0) -> Trial:
     """A trial whose observations are the simulation's own tracks of `objects` (default: every free object),
     every `1/rate` s until `settle` s after the telemetry, with `spec` at `values` (None: start values)."""
-    params, replayed = (None, telemetry) if spec is None else apply_params(spec, values, world, telemetry, odb)
-    draft = Trial(name, world, telemetry, ObservedPoses(()), Path(f"<synthetic {name}>"))
-    result = replay(scene_for(draft, odb, config), replayed, world=world, params=params,
-                    options=ReplayOptions(sample_rate=SAMPLE_RATE, settle=settle))
+    rollout = Rollout(world, telemetry, name=name)
+    if spec is not None:
+        rollout = apply_model(spec.model(values), rollout, odb)
+    result = run_rollout(rollout, odb, SimOptions(sample_rate=SAMPLE_RATE, settle=settle))
     names = list(objects) if objects is not None else list(result.tracks)
     times = np.arange(0.0, result.times[-1] + 1e-9, 1.0 / rate)
     tracks = []
     for obj in names:
-        xyz, R = simulated_poses(result, obj, times)
+        xyz, R = sample_track(result.times, result.tracks[obj], times)
         tracks.append(ObservedTrack(obj, times, tuple(Pose(tuple(p), rotation_to_quat(r)) for p, r in zip(xyz, R))))
     return Trial(name, world, telemetry, ObservedPoses(tuple(tracks), source=f"<synthetic {name}>"),
                  Path(f"<synthetic {name}>"), (f"synthetic: observations simulated with {_describe(spec, values)}",))
 
 
-def _describe(spec: ParameterSpec | None, values) -> str:
+def _describe(spec: ParameterSet | None, values) -> str:
     if spec is None:
         return "the object database's values"
     values = spec.start_values() if values is None else values
@@ -104,7 +104,7 @@ def push_telemetries() -> dict[str, Telemetry]:
     }
 
 
-def recovery_spec(names: Sequence[str] = tuple(TRUE_VALUES), *, start: dict[str, float] | None = None) -> ParameterSpec:
+def recovery_spec(names: Sequence[str] = tuple(TRUE_VALUES), *, start: dict[str, float] | None = None) -> ParameterSet:
     """The paper-like problem: two frictions and two other parameters. Those in `names` are free, with bounds
     and wrong starts (or `start`); the others are fixed at their true values."""
     table = {
@@ -119,24 +119,23 @@ def recovery_spec(names: Sequence[str] = tuple(TRUE_VALUES), *, start: dict[str,
     entries = []
     for name, (kind, target, bounds, default_start) in table.items():
         if name in names:
-            entries.append(ParamSpec(PARAMETER_KINDS[kind], target, bounds=bounds,
-                                     start=(start or {}).get(name, default_start)))
+            entries.append(Parameter(KINDS[kind], target, bounds=bounds, start=(start or {}).get(name, default_start)))
         else:
-            entries.append(ParamSpec(PARAMETER_KINDS[kind], target, value=TRUE_VALUES[name]))
+            entries.append(Parameter(KINDS[kind], target, value=TRUE_VALUES[name]))
     for name, value in FIXED_VALUES.items():
         kind, target = name[:-1].split("[")
-        entries.append(ParamSpec(PARAMETER_KINDS[kind], target, value=value))
-    return ParameterSpec(tuple(entries), source="synthetic recovery problem")
+        entries.append(Parameter(KINDS[kind], target, value=value))
+    return ParameterSet(tuple(entries), source="synthetic recovery problem")
 
 
-def push_trials(odb: ObjectDatabase, *, cases: Sequence[str] = ("slide", "turn"), config: SimConfig = SimConfig()) -> list[Trial]:
+def push_trials(odb: ObjectDatabase, *, cases: Sequence[str] = ("slide", "turn")) -> list[Trial]:
     """The scenario's trials observed with `TRUE_VALUES` (every one of them, whichever are fitted)."""
     truth = recovery_spec(tuple(TRUE_VALUES))
     values = [TRUE_VALUES[n] for n in truth.names]
     world = push_world()
     telemetries = push_telemetries()
     return [synthesize_trial(case, world, telemetries[case], odb, spec=truth, values=values,
-                             objects=("big_box", "small_box"), config=config) for case in cases]
+                             objects=("big_box", "small_box")) for case in cases]
 
 
 @dataclass(frozen=True)

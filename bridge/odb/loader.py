@@ -31,6 +31,7 @@ import types as pytypes
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
+from xml.etree import ElementTree
 
 from ..errors import ObjectDatabaseError
 from ..files import read_yaml
@@ -299,6 +300,11 @@ class _Reader:
                 _number(g.get("open", 0.04), src, f"{gfld}.open", positive=False),
                 _number(g.get("closed", 0.0), src, f"{gfld}.closed", positive=False),
                 tuple(g.get("finger_links") or ()))
+        joint_types = _joint_types(model_path, src, f"{fld}.model")
+        missing = [j for j in joints if j not in joint_types]
+        if missing:
+            raise ObjectDatabaseError(f"robot model {model_path.name} has no joint {missing[0]!r}; its joints: "
+                                      f"{', '.join(joint_types)}", source=src, field=f"{fld}.joints")
         home = body.get("home") or {}
         if not isinstance(home, dict) or any(j not in joints for j in home):
             raise ObjectDatabaseError("home must map the robot's joints to positions", source=src, field=f"{fld}.home")
@@ -306,7 +312,18 @@ class _Reader:
             model=model_path, base_link=str(body.get("base_link", "base")), joints=tuple(joints), gripper=gripper,
             home=tuple((j, _number(v, src, f"{fld}.home.{j}", positive=False)) for j, v in home.items()),
             kp=_number(body.get("kp", 400.0), src, f"{fld}.kp", positive=True),
-            kd=_number(body.get("kd", 40.0), src, f"{fld}.kd", positive=True))
+            kd=_number(body.get("kd", 40.0), src, f"{fld}.kd", positive=True),
+            joint_types=tuple((j, joint_types[j]) for j in joints))
+
+
+def _joint_types(model: Path, src: str, fld: str) -> dict[str, str]:
+    """Joint name -> type ('prismatic', 'revolute', ...) read from the SDF/URDF's XML: what the diagnosis needs to
+    know of a joint (a calibration offset in metres or radians) without building a simulation."""
+    try:
+        root = ElementTree.parse(model).getroot()
+    except (ElementTree.ParseError, OSError) as exc:
+        raise ObjectDatabaseError(f"cannot read robot model {model}: {exc}", source=src, field=fld) from None
+    return {j.get("name"): j.get("type", "") for j in root.iter("joint") if j.get("name")}
 
 
 def _no_unknown(body: Mapping[str, Any], valid: set[str], src: str, fld: str) -> None:

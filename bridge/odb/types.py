@@ -100,6 +100,11 @@ class RobotSpec:
     home: tuple[tuple[str, float], ...] = ()
     kp: float = 400.0
     kd: float = 40.0
+    joint_types: tuple[tuple[str, str], ...] = ()  # joint -> 'prismatic' | 'revolute' | ..., from the model file
+
+    @property
+    def joint_type(self) -> dict[str, str]:
+        return dict(self.joint_types)
 
     def home_positions(self) -> dict[str, float]:
         base = {j: 0.0 for j in self.joints}

@@ -2,13 +2,15 @@
 telemetry through PD-controlled actuators.
 
 The diagram is built once per scene *structure* (which objects, of which types, where the fixtures stand, which
-robot) and reused: initial poses, friction, contact stiffness, mass and centre of mass are written into a fresh
-context for every replay (`Scene.new_context`), so a fit never rebuilds the diagram.
+robot, which extras) and never changed afterwards: initial poses, scene values (friction, contact stiffness,
+mass, centre of mass, external forces) and the robot's desired trajectory are written into a fresh context for
+every replay (`Scene.new_context`, `Scene.set_desired`), so a fit never rebuilds the diagram and one diagram can
+serve two replays at once.
 """
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -24,13 +26,13 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
 from pydrake.multibody.tree import SpatialInertia, UnitInertia
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import TrajectorySource
 
 from ..errors import SceneError
 from ..odb import ObjectDatabase, ObjectType
 from ..values import Pose
 from ..world import WorldState
 from .shapes import drake_shape, mass_properties
+from .sources import ConstantForces, DesiredState
 
 
 class _FloorNotice(logging.Filter):
@@ -56,8 +58,13 @@ class SimConfig:
 
 
 @dataclass(frozen=True)
-class ObjectParams:
-    """Per-object values written into a context. None keeps the object database's value."""
+class ObjectValues:
+    """Per-object values written into a context. None keeps the object database's value.
+
+    `spread` says where a changed mass sits: 1 (the default) spread like the object's own (uniform density: the
+    rotational inertia scales with the mass), 0 at the centre of mass (a compact weight: the inertia stays);
+    the inertia about the centre of mass is the database's times 1 + spread (mass / database mass - 1).
+    """
 
     friction: float | None = None
     dynamic_friction: float | None = None
@@ -65,15 +72,29 @@ class ObjectParams:
     dissipation: float | None = None
     mass: float | None = None
     com: tuple[float, float, float] | None = None
-    inertia_scale: float | None = None  # rotational inertia about the COM x this (None: x mass / database mass)
+    spread: float | None = None
+
+    def merged(self, other: "ObjectValues") -> "ObjectValues":
+        """`other`'s values where it has them, these elsewhere."""
+        return replace(self, **{k: v for k, v in vars(other).items() if v is not None})
 
 
 @dataclass(frozen=True)
-class SceneParams:
+class SceneValues:
     """Everything a replay may vary without rebuilding the diagram."""
 
-    objects: Mapping[str, ObjectParams] = field(default_factory=dict)
+    objects: Mapping[str, ObjectValues] = field(default_factory=dict)
     external_forces: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)  # N, world frame, at the COM
+
+    def with_object(self, name: str, **changes: float | tuple | None) -> "SceneValues":
+        objects = dict(self.objects)
+        objects[name] = replace(objects.get(name, ObjectValues()), **changes)
+        return replace(self, objects=objects)
+
+    def with_force(self, name: str, force: tuple[float, float, float]) -> "SceneValues":
+        forces = dict(self.external_forces)
+        forces[name] = tuple(float(f) for f in force)
+        return replace(self, external_forces=forces)
 
 
 def to_drake(pose: Pose) -> RigidTransform:
@@ -88,17 +109,17 @@ def from_drake(X: RigidTransform) -> Pose:
     return Pose(tuple(X.translation()), (q.w(), q.x(), q.y(), q.z()))
 
 
-def proximity(obj_type: ObjectType, config: SimConfig, params: ObjectParams | None = None) -> ProximityProperties:
+def proximity(obj_type: ObjectType, config: SimConfig, values: ObjectValues | None = None) -> ProximityProperties:
     phys = obj_type.physics
-    params = params or ObjectParams()
-    mu_s = params.friction if params.friction is not None else phys.friction
-    mu_d = params.dynamic_friction if params.dynamic_friction is not None else (
-        mu_s if params.friction is not None else phys.mu_dynamic)
+    values = values or ObjectValues()
+    mu_s = values.friction if values.friction is not None else phys.friction
+    mu_d = values.dynamic_friction if values.dynamic_friction is not None else (
+        mu_s if values.friction is not None else phys.mu_dynamic)
     props = ProximityProperties()
     AddContactMaterial(
-        dissipation=params.dissipation if params.dissipation is not None else phys.dissipation,
+        dissipation=values.dissipation if values.dissipation is not None else phys.dissipation,
         friction=CoulombFriction(mu_s, min(mu_d, mu_s)), properties=props)
-    modulus = params.hydroelastic_modulus if params.hydroelastic_modulus is not None else phys.hydroelastic_modulus
+    modulus = values.hydroelastic_modulus if values.hydroelastic_modulus is not None else phys.hydroelastic_modulus
     if modulus is not None:
         AddCompliantHydroelasticProperties(config.resolution_hint, modulus, props)
     elif obj_type.fixed:  # rigid fixtures against compliant objects: cheaper than compliant-compliant, same motion
@@ -120,13 +141,13 @@ class Scene:
     geometries: dict[str, list]  # object name -> collision geometry ids (free and fixed)
     robot_instance: object | None
     robot_joints: tuple[str, ...]
-    desired_source: object | None
-    force_source: object | None
+    desired_source: "DesiredState | None"
+    force_source: "ConstantForces | None"
     body_names: dict[object, str]  # BodyIndex -> 'box' or 'robot/link'
 
     # --- contexts -------------------------------------------------------------------------------
-    def new_context(self, world: WorldState | None = None, params: SceneParams | None = None):
-        """A fresh context with the world's initial poses and robot joints, and `params` written in."""
+    def new_context(self, world: WorldState | None = None, values: SceneValues | None = None):
+        """A fresh context with the world's initial poses and robot joints, and `values` written in."""
         world = world or self.world
         context = self.diagram.CreateDefaultContext()
         plant_ctx = self.plant.GetMyMutableContextFromRoot(context)
@@ -134,7 +155,7 @@ class Scene:
             self.plant.SetFreeBodyPose(plant_ctx, body, to_drake(world.objects[name].pose))
         if self.robot_instance is not None and world.robot is not None:
             self.plant.SetPositions(plant_ctx, self.robot_instance, self.robot_positions(world.robot.joint_positions()))
-        self.apply_params(context, params or SceneParams())
+        self.apply_values(context, values or SceneValues())
         return context
 
     def robot_positions(self, joints: Mapping[str, float]) -> np.ndarray:
@@ -161,47 +182,43 @@ class Scene:
             columns.append(index[joint])
         return np.asarray(columns)
 
-    def set_desired(self, times: np.ndarray, positions: np.ndarray) -> None:
-        """Make the robot track `positions` (rows: samples, columns: actuators in desired-state order).
+    def set_desired(self, context, times: np.ndarray, positions: np.ndarray) -> None:
+        """Make the robot track `positions` (rows: samples, columns: actuators in desired-state order) in this
+        context (first-order hold; see `sources.DesiredState`)."""
+        self.desired_source.set_desired(self.desired_source.GetMyMutableContextFromRoot(context), times, positions)
 
-        First-order hold between samples, its derivative as the desired velocity; the source holds the last
-        sample after the end. The source is part of the diagram: one replay at a time per scene.
-        """
-        from pydrake.trajectories import PiecewisePolynomial
+    def actuated_joints(self) -> list:
+        """The robot's actuated joints, in desired-state order."""
+        return [self.plant.get_joint_actuator(a).joint() for a in self.plant.GetJointActuatorIndices(self.robot_instance)]
 
-        if len(times) == 1:
-            times, positions = np.array([0.0, 1.0]), np.vstack([positions, positions])
-        trajectory = PiecewisePolynomial.FirstOrderHold(np.asarray(times, dtype=float), np.asarray(positions, dtype=float).T)
-        self.desired_source.UpdateTrajectory(trajectory)
-
-    def apply_params(self, context, params: SceneParams) -> None:
+    def apply_values(self, context, values: SceneValues) -> None:
         plant_ctx = self.plant.GetMyMutableContextFromRoot(context)
         sg_ctx = self.scene_graph.GetMyMutableContextFromRoot(context)
-        for name, p in params.objects.items():
+        for name, p in values.objects.items():
             if name not in self.geometries and name in self.link_geometries():
-                self._apply_link_params(sg_ctx, name, p)
+                self._apply_link_values(sg_ctx, name, p)
                 continue
             if name not in self.geometries:
                 links = ", ".join(sorted(self.link_geometries()))
                 raise SceneError(f"unknown object {name!r}; objects: {', '.join(sorted(self.geometries))}"
-                                 + (f"; robot links with collision geometry: {links}" if links else ""), field="params")
+                                 + (f"; robot links with collision geometry: {links}" if links else ""), field="values")
             obj_type = self.odb.get(self.world.objects[name].type)
             if any(v is not None for v in (p.friction, p.dynamic_friction, p.hydroelastic_modulus, p.dissipation)):
                 props = proximity(obj_type, self.config, p)
                 for gid in self.geometries[name]:
                     self.scene_graph.AssignRole(sg_ctx, self.plant.get_source_id(), gid, props, RoleAssign.kReplace)
-            if (p.mass is not None or p.com is not None or p.inertia_scale is not None) and name in self.bodies:
+            if (p.mass is not None or p.com is not None or p.spread is not None) and name in self.bodies:
                 body = self.bodies[name]
                 mp = mass_properties(self.odb, obj_type.name)
                 mass = p.mass if p.mass is not None else mp.mass
                 com = np.asarray(p.com if p.com is not None else mp.com, dtype=float)
-                I_com = mp.inertia * (p.inertia_scale if p.inertia_scale is not None else mass / mp.mass)
+                spread = 1.0 if p.spread is None else p.spread
+                I_com = mp.inertia * max(0.05, 1.0 + spread * (mass / mp.mass - 1.0))
                 G = UnitInertia(*(np.diag(I_com) / mass), *(I_com[[0, 0, 1], [1, 2, 2]] / mass))
                 M_com = SpatialInertia(mass, np.zeros(3), G)
                 body.SetSpatialInertiaInBodyFrame(plant_ctx, M_com.Shift(-com))
         if self.force_source is not None:
-            self.force_source.set_forces(self.force_source.GetMyMutableContextFromRoot(context), params.external_forces)
-
+            self.force_source.set_forces(self.force_source.GetMyMutableContextFromRoot(context), values.external_forces)
 
     def link_geometries(self) -> dict[str, list]:
         """Collision geometries of the robot's links by 'robot/link' name (the names contacts use)."""
@@ -213,11 +230,11 @@ class Scene:
                     found[name] = list(gids)
         return found
 
-    def _apply_link_params(self, sg_ctx, name: str, p: ObjectParams) -> None:
+    def _apply_link_values(self, sg_ctx, name: str, p: ObjectValues) -> None:
         """Friction and dissipation of a robot link, on top of its model's contact properties."""
-        if any(v is not None for v in (p.hydroelastic_modulus, p.mass, p.com, p.inertia_scale)):
+        if any(v is not None for v in (p.hydroelastic_modulus, p.mass, p.com, p.spread)):
             raise SceneError(f"robot link {name!r}: only friction, dynamic_friction and dissipation can be set",
-                             field="params")
+                             field="values")
         inspector = self.scene_graph.model_inspector()
         for gid in self.link_geometries()[name]:
             props = ProximityProperties(inspector.GetProximityProperties(gid))
@@ -295,7 +312,17 @@ def add_robot(plant, world: WorldState, odb: ObjectDatabase):
 
 def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimConfig(),
                 extras: Sequence = (), meshcat=None) -> Scene:
-    """Assemble the diagram in a fixed order: plant and scene graph, objects, robot, extras, sources."""
+    """Assemble the diagram in a fixed order: plant and scene graph, objects, robot, extras, sources. Drake's own
+    failures while building (a mesh it cannot read, a geometry it cannot make hydroelastic) become one
+    `SceneError` naming what was being built."""
+    try:
+        return _build(world, odb, config, extras, meshcat)
+    except RuntimeError as exc:
+        what = f"world {world.name!r}" + (f" with extras {', '.join(type(e).__name__ for e in extras)}" if extras else "")
+        raise SceneError(f"Drake cannot build the scene of {what}: {str(exc).splitlines()[0]}") from None
+
+
+def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Sequence, meshcat) -> Scene:
     builder = DiagramBuilder()
     plant_config = MultibodyPlantConfig(
         time_step=config.time_step, contact_model=config.contact_model,
@@ -321,14 +348,9 @@ def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimC
             body_names[index] = f"{world.robot.name}/{plant.get_body(index).name()}"
     desired = forces = None
     if instance is not None and plant.num_actuated_dofs(instance) > 0:
-        from pydrake.trajectories import PiecewisePolynomial
-
-        hold = PiecewisePolynomial.ZeroOrderHold([0.0, 1.0], np.zeros((plant.num_actuated_dofs(instance), 2)))
-        desired = builder.AddSystem(TrajectorySource(hold, output_derivative_order=1))
+        desired = builder.AddSystem(DesiredState(plant.num_actuated_dofs(instance)))
         builder.Connect(desired.get_output_port(), plant.get_desired_state_input_port(instance))
     if bodies:
-        from .forces import ConstantForces
-
         forces = builder.AddSystem(ConstantForces(list(bodies.items())))
         builder.Connect(forces.get_output_port(), plant.get_applied_spatial_force_input_port())
     if meshcat is not None:

@@ -15,8 +15,8 @@ from ..odb import ObjectDatabase
 from ..recording.observations import ObservedPoses
 from ..recording.telemetry import Telemetry
 from ..world import WorldState
-from .replay import ReplayOptions, ReplayResult, replay
-from .scene import SceneParams, SimConfig, build_scene, to_drake
+from .scene import SceneValues, SimConfig, build_scene, to_drake
+from .simulate import FailurePolicy, ReplayResult, SimOptions, simulate
 from .shapes import drake_shape
 
 GHOST_ALPHA = 0.3
@@ -29,17 +29,20 @@ def write_replay_html(
     out: str | Path,
     *,
     observations: ObservedPoses | None = None,
-    params: SceneParams | None = None,
+    values: SceneValues | None = None,
     extras: Sequence = (),
+    hooks: Sequence = (),
     config: SimConfig = SimConfig(),
 ) -> ReplayResult:
-    """Replay with a Meshcat recording attached and save it as one HTML file."""
+    """Replay with a Meshcat recording attached and save it as one HTML file (a robot that cannot follow its
+    telemetry is shown, not refused: seeing where it got stuck is the point)."""
     meshcat = Meshcat()  # serves on localhost only while we record
     scene = build_scene(world, odb, config, extras=extras, meshcat=meshcat)
     visualizer = scene.diagram.GetSubsystemByName(
         next(s.get_name() for s in scene.diagram.GetSystems() if type(s).__name__.startswith("MeshcatVisualizer")))
     visualizer.StartRecording(set_transforms_while_recording=False)
-    result = replay(scene, telemetry, world=world, params=params, options=ReplayOptions(check_tracking=False))
+    result = simulate(scene, telemetry, world=world, values=values, hooks=hooks,
+                      options=SimOptions(policy=FailurePolicy(check_tracking=False)))
     visualizer.StopRecording()
     if observations is not None:
         _add_ghosts(meshcat, visualizer.get_mutable_recording(), world, odb, observations, result.sim_time)

@@ -17,8 +17,9 @@ from bridge.recording.recording import load_recording  # noqa: E402
 from bridge.bodies import BODIES, push_at, world_after_replay  # noqa: E402
 from bridge.bodies.motion import RATE  # noqa: E402
 from bridge.sim.kinematics import arm_for  # noqa: E402
-from bridge.sim.replay import replay  # noqa: E402
-from bridge.sim.scene import ObjectParams, SceneParams, build_scene  # noqa: E402
+from bridge.enactment import REPLAY  # noqa: E402
+from bridge.params import Setting, apply_model  # noqa: E402
+from bridge.rollout import Rollout, run_rollout  # noqa: E402
 from bridge.world import load_world_state, world_from_dict  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
@@ -48,11 +49,10 @@ def templates(odb):
 class Run:
     """One body's telemetry replayed: the world before, the replay, the inferred and the expected worlds."""
 
-    def __init__(self, world, action, args, odb, templates, scene=None):
+    def __init__(self, world, action, args, odb, templates):
         self.world, self.action, self.args = world, action, args
         self.telemetry = BODIES[action](world, odb, list(args))
-        self.scene = scene or build_scene(world, odb)
-        self.result = replay(self.scene, self.telemetry, world=world)
+        self.result = run_rollout(Rollout(world, self.telemetry), odb, REPLAY)
         self.inferred = infer_state(world, odb, self.result.final_poses, self.result.final_contacts,
                                     self.result.moved, self.result.contact_pairs())
         self.expected = apply_action(world, odb, templates, action, list(args))
@@ -67,7 +67,7 @@ def runs(odb, templates):
         if action not in cache:
             if action == "place":
                 picked = get("pick")
-                held = world_after_replay(picked.world, picked.scene, picked.result, picked.inferred.world.facts)
+                held = world_after_replay(picked.world, picked.result, picked.inferred.world.facts)
                 cache[action] = Run(held, "place", ("arm", "small_box", "tray"), odb, templates)
             else:
                 path, args = CASES[action]
@@ -218,27 +218,25 @@ def _box_world(odb, xy, others=None):
 
 
 @pytest.fixture(scope="module")
-def tipping_scene(odb):
-    world = _box_world(odb, (0.65, 0.0))
-    return world, build_scene(world, odb)
+def tipping_world(odb):
+    return _box_world(odb, (0.65, 0.0))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("mu", [0.4, 0.8])
 @pytest.mark.parametrize("factor", [0.7, 1.4])
-def test_tall_box_tips_when_pushed_above_w_over_2mu_and_slides_below(mu, factor, tipping_scene, odb, templates):
+def test_tall_box_tips_when_pushed_above_w_over_2mu_and_slides_below(mu, factor, tipping_world, odb, templates):
     """Box and table at friction mu, nearly frictionless pads (the theory's pusher): pushed at `factor` times the
     tipping height w / (2 mu), the 10 cm wide box tips above it and slides upright below it."""
-    world, scene = tipping_scene
+    world = tipping_world
     w, H = 0.1, 0.25
     threshold = w / (2 * mu)
     phi = np.arctan2(w, H)
     travel = 1.4 * (1.4 * threshold * np.tan(phi) - w * (1 / np.cos(phi) - 1)) + 0.02  # enough to tip the high push
     telemetry = push_at(world, odb, ["arm", "big_box", "table"], (1, 0, 0), factor * threshold, travel)
-    params = SceneParams(objects={"big_box": ObjectParams(friction=mu), "table": ObjectParams(friction=mu),
-                                  "arm/finger_left": ObjectParams(friction=0.05),
-                                  "arm/finger_right": ObjectParams(friction=0.05)})
-    result = replay(scene, telemetry, world=world, params=params)
+    model = (Setting("friction", "big_box", mu), Setting("friction", "table", mu),
+             Setting("friction", "arm/finger_left", 0.05), Setting("friction", "arm/finger_right", 0.05))
+    result = run_rollout(apply_model(model, Rollout(world, telemetry), odb), odb, REPLAY)
     box = result.final_poses["big_box"]
     tilt = np.degrees(np.arccos(np.clip(box.z_axis()[2], -1, 1)))
     inferred = infer_state(world, odb, result.final_poses, result.final_contacts, result.moved, result.contact_pairs())

@@ -6,14 +6,7 @@ pytest.importorskip("pydrake")
 
 
 @pytest.fixture(scope="session")
-def odb():
-    from bridge.odb import load_object_database
-
-    return load_object_database()
-
-
-@pytest.fixture(scope="session")
 def planar_world(odb):
-    from bridge.diagnosis.scenarios import nominal_world, scene_spec
+    from bridge.prove.scenes import nominal_world, scene_spec
 
     return nominal_world(scene_spec("planar", odb), odb, (0.0, 0.0, 0.1))

@@ -5,7 +5,8 @@ import pytest
 
 from bridge.cli import main
 from bridge.diagnosis.report import validate
-from bridge.diagnosis.scenarios import Case, generate_case
+from bridge.prove.generate import generate_case
+from bridge.prove.scenes import Case
 
 
 @pytest.mark.slow
@@ -40,8 +41,9 @@ def test_infer_replays_with_a_diagnosed_scene_file(odb, tmp_path, capsys):
     start, end = [float(v) for v in observed[0][2:4]], [float(v) for v in observed[-1][2:4]]
     ahead = [start[k] + 0.6 * (end[k] - start[k]) for k in (0, 1)]  # a post on the block's way
     scene = tmp_path / "scene.yaml"
-    scene.write_text(yaml.safe_dump({"format": 1, "effects": [
-        {"effect": "hidden_obstacle", "target": "surface", "params": {"x": ahead[0] + 0.06, "y": ahead[1]}}]}))
+    scene.write_text(yaml.safe_dump({"params": [
+        {"kind": "obstacle_x", "target": "surface", "value": ahead[0] + 0.06, "effect": "hidden_obstacle"},
+        {"kind": "obstacle_y", "target": "surface", "value": ahead[1], "effect": "hidden_obstacle"}]}))
     plain, blocked = tmp_path / "plain.yaml", tmp_path / "blocked.yaml"
     assert main(["infer", str(rec), "--world-out", str(plain)]) == 0
     assert main(["infer", str(rec), "--scene", str(scene), "--world-out", str(blocked)]) == 0
@@ -68,8 +70,8 @@ def test_fit_runs_on_top_of_a_diagnosed_scene_file(odb, tmp_path, capsys):
 
     paths, truth = generate_case(Case("planar", "latency", "large", 1), odb, tmp_path / "rec", 2)
     scene = tmp_path / "scene.yaml"
-    scene.write_text(yaml.safe_dump({"format": 1, "effects": [
-        {"effect": "latency", "target": truth.target, "params": {k: float(v) for k, v in truth.params.items()}}]}))
+    scene.write_text(yaml.safe_dump({"params": [{"kind": "latency", "target": truth.target,
+                                                 "value": float(truth.params["latency[pusher]"])}]}))
     errors = {}
     for name, extra in (("plain", []), ("scene", ["--scene", str(scene)])):
         out = tmp_path / name
@@ -82,8 +84,7 @@ def test_fit_runs_on_top_of_a_diagnosed_scene_file(odb, tmp_path, capsys):
     assert errors["scene"][1] < 0.5 * errors["plain"][1]
     capsys.readouterr()
     bad = tmp_path / "bad.yaml"
-    bad.write_text(yaml.safe_dump({"format": 1, "effects": [{"effect": "com_offset", "target": "tabel",
-                                                               "params": {"dx": 0.01, "dy": 0.0}}]}))
+    bad.write_text(yaml.safe_dump({"params": [{"kind": "com_x", "target": "tabel", "value": 0.01}]}))
     assert main(["fit", *map(str, paths), "--scene", str(bad), "--out", str(tmp_path / "bad")]) == 1
     err = capsys.readouterr().err.strip()
     assert "tabel" in err and "bad.yaml" in err and err.count("\n") == 0

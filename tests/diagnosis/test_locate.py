@@ -4,16 +4,17 @@ import numpy as np
 import pytest
 
 from bridge.diagnosis.locate import locate
-from bridge.diagnosis.scenarios import NOISE_POSITION, NOISE_ROTATION, Case, generate_case
-from bridge.diagnosis.simulation import Engine, prepare
-from bridge.fit.trials import load_trials
+from bridge.diagnosis.runs import Runner, prepare
+from bridge.prove.generate import generate_case
+from bridge.prove.scenes import NOISE_POSITION, NOISE_ROTATION, Case
+from bridge.rollout import load_trials, make_executor
 from bridge.sim.shapes import mass_properties
 
 
 def _engine(case, odb, tmp_path, n=2):
     paths, truth = generate_case(case, odb, tmp_path / case.name, n)
     trials = load_trials(paths, odb)
-    return Engine([prepare(t, odb, 25.0) for t in trials], odb, workers=1), truth
+    return Runner([prepare(t, odb, 25.0) for t in trials], odb, make_executor("serial", odb)), truth
 
 
 @pytest.mark.slow
@@ -48,7 +49,7 @@ def test_a_heavier_block_shows_in_the_force_ratio_not_the_path(odb, tmp_path):
     engine, truth = _engine(Case("planar", "mass", "large", 1), odb, tmp_path)
     loc = locate(engine)
     m0 = mass_properties(odb, "steel_block").mass
-    assert loc.force_scale() == pytest.approx(truth.params["mass"] / m0, rel=0.15)
+    assert loc.force_scale() == pytest.approx(truth.params["mass[block]"] / m0, rel=0.15)
     assert all(f.significant for f in loc.forces)
     assert max(o.error["e_t"] for o in loc.objects) < 0.004  # the path is off by millimetres at most
 
@@ -58,4 +59,4 @@ def test_a_clock_shift_shows_as_a_start_of_motion_shift(odb, tmp_path):
     engine, truth = _engine(Case("planar", "latency", "large", 1), odb, tmp_path)
     loc = locate(engine)
     shifts = [o.features["moves_obs_s"] - o.features["moves_sim_s"] for o in loc.objects]
-    assert np.median(shifts) == pytest.approx(truth.params["dt"], abs=0.025)
+    assert np.median(shifts) == pytest.approx(truth.params["latency[pusher]"], abs=0.025)

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from bridge.diagnosis.residuals import estimate_noise, residual, observed_series
+from bridge.diagnosis.residuals import estimate_noise, observed_series
+from bridge.rollout.compare import pose_residual
 from bridge.recording.observations import ObservedTrack
 from bridge.values import Pose
 
@@ -39,7 +40,7 @@ def test_constant_components_are_not_measured():
 
 def test_residual_of_identical_tracks_is_zero():
     s = observed_series(_track(1e-4, 1e-3), 25.0)
-    assert np.abs(residual(s, s.xyz, s.R)).max() < 1e-12
+    assert np.abs(pose_residual(s.xyz, s.R, s.xyz, s.R)).max() < 1e-12
 
 
 def test_force_noise_is_estimated_and_identical_forces_leave_no_residual():

@@ -5,14 +5,8 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from bridge.fit.executors import make_executor  # noqa: E402
 from bridge.fit.synthetic import push_trials  # noqa: E402
-from bridge.odb import load_object_database  # noqa: E402
-
-
-@pytest.fixture(scope="session")
-def odb():
-    return load_object_database()
+from bridge.rollout import make_executor  # noqa: E402
 
 
 @pytest.fixture(scope="session")

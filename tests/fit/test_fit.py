@@ -12,7 +12,8 @@ from bridge.errors import FitError
 from bridge.fit.fit import CHECKPOINT_FILE, fit_parameters, split_hold_out
 from bridge.fit.report import table1, write_report
 from bridge.fit.synthetic import TRUE_VALUES, recovery, recovery_spec
-from bridge.fit.trials import load_trials
+from bridge.params import KINDS
+from bridge.rollout import load_trials
 from bridge.recording.recording import save_recording
 from bridge.world import save_world_state
 
@@ -20,11 +21,11 @@ FRICTIONS = ("friction[big_box]", "friction[table]")
 MASS_COM = ("mass[small_box]", "com_z[big_box]")
 # Stated tolerances of the recovery (noise-free synthetic recordings, wrong start, <= 12 generations).
 TOLERANCE = {"friction[big_box]": 0.04, "friction[table]": 0.04, "mass[small_box]": 0.05, "com_z[big_box]": 0.005}
-POPSIZE = {"cmaes": 6, "es": 12}
+POPSIZE = {"cmaes": 6, "es": 12, "lm": None}
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("optimizer", ["cmaes", "es"])
+@pytest.mark.parametrize("optimizer", ["cmaes", "es", "lm"])
 @pytest.mark.parametrize("names", [FRICTIONS, MASS_COM], ids=["frictions", "mass+com"])
 def test_recovers_known_parameters_from_a_wrong_start(optimizer, names, trials, odb, pool):
     spec = recovery_spec(names)
@@ -131,7 +132,30 @@ def test_bridge_fit_command_on_recording_folders(trials, odb, tmp_path, capsys):
     bad.write_text("params:\n  - {kind: friction, target: tabel, value: 0.3}\n")
     assert main(["infer", str(folders[0]), "--params", str(bad)]) == 1
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "unknown target 'tabel'" in err and "bad.yaml" in err
+    assert err.count("\n") == 0 and "'tabel' names nothing" in err and "bad.yaml" in err
+
+
+@pytest.mark.slow
+def test_bridge_fit_accepts_every_kind(slide, odb, tmp_path, capsys):
+    """One parameter file naming every kind of the registry (the tilt, the post and the patch among them) fits
+    end to end: each candidate rebuilds what it must and replays."""
+    trial = slide[0]
+    folder = _as_recording(trial, tmp_path / "recordings" / trial.name)
+    entries = []
+    for name, kind in KINDS.items():
+        target = {"robot": "pusher", "joints": "pusher_x", "surfaces": "table"}.get(kind.targets, "big_box")
+        null, step = kind.null(trial.world, odb, target), kind.step(trial.world, odb, target)
+        lo, hi = kind.bounds(trial.world, odb, target)
+        entries.append({"kind": name, "target": target, "bounds": [max(lo, null - step), min(hi, null + step)],
+                        "start": null})
+    params = tmp_path / "every.yaml"
+    params.write_text(yaml.safe_dump({"params": entries}))
+    out = tmp_path / "out"
+    argv = ["fit", str(folder), "--params", str(params), "--executor", "serial", "--generations", "1", "--popsize",
+            "2", "--hold-out", "0", "--out", str(out)]
+    assert main(argv) == 0, capsys.readouterr().err
+    data = json.loads((out / "fit.json").read_text())
+    assert set(data["params"]) == {f"{e['kind']}[{e['target']}]" for e in entries}
 
 
 def test_fit_needs_free_parameters_and_trials(slide, odb):

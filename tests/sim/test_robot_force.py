@@ -8,13 +8,13 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from bridge.diagnosis.scenarios import design_pushes, nominal_world, scene_spec  # noqa: E402
 from bridge.odb import load_object_database  # noqa: E402
+from bridge.prove.scenes import design_pushes, nominal_world, scene_spec  # noqa: E402
 from bridge.recording.telemetry import Telemetry  # noqa: E402
 from bridge.sim.friction import combined_friction  # noqa: E402
-from bridge.sim.scene import ObjectParams, SceneParams, build_scene  # noqa: E402
-from bridge.sim.shapes import mass_properties
-from bridge.sim.tracks import simulate_tracks  # noqa: E402
+from bridge.sim.scene import SceneValues, build_scene  # noqa: E402
+from bridge.sim.shapes import mass_properties  # noqa: E402
+from bridge.sim.simulate import SimOptions, simulate  # noqa: E402
 
 G = 9.81
 
@@ -31,9 +31,9 @@ def test_push_force_balances_friction_and_scales_with_mass():
     mu = combined_friction(odb.get(spec.object_type).physics.friction, odb.get(spec.surface_type).physics.friction)
 
     def run(mass):
-        params = SceneParams(objects={spec.object: ObjectParams(mass=mass)})
-        return simulate_tracks(scene, telemetry, world=world, params=params, end=float(push.times[-1]),
-                               robot_force=True)
+        values = SceneValues().with_object(spec.object, mass=mass)
+        return simulate(scene, telemetry, world=world, values=values,
+                        options=SimOptions(end=float(push.times[-1]), robot_force=True))
 
     light, heavy = run(m), run(2 * m)
     f_light = np.linalg.norm(light.robot_force[:, :2], axis=1)

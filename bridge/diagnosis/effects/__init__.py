@@ -1,6 +1,8 @@
 """The catalog of effects a diagnosis can name: one file each, one explicit registry.
 
-To add an effect, write one `Effect` subclass (see base.py) and register it::
+An effect is a named bundle of parameter kinds (`bridge.params.kinds`) with its signature, seeds and,
+optionally, how the proof conceals it. To add an effect, write one `Effect` subclass (see base.py) and register
+it where your code starts::
 
     from bridge.diagnosis.effects import register_effect
     register_effect(MyEffect())
@@ -8,7 +10,8 @@ To add an effect, write one `Effect` subclass (see base.py) and register it::
 from __future__ import annotations
 
 from ...errors import DiagnosisError
-from .base import Applied, Contribution, Effect, Evidence, ParamSpec
+from ...params import KINDS
+from .base import Effect, Evidence, Recovery, Truth, pname
 from .com_offset import ComOffset
 from .friction import Friction
 from .friction_patch import FrictionPatch
@@ -31,7 +34,7 @@ EFFECTS: dict[str, Effect] = {
     "hidden_obstacle": HiddenObstacle(),
 }
 
-__all__ = ["EFFECTS", "Applied", "Contribution", "Effect", "Evidence", "ParamSpec", "get_effect", "register_effect"]
+__all__ = ["EFFECTS", "Effect", "Evidence", "Recovery", "Truth", "get_effect", "pname", "register_effect"]
 
 
 def get_effect(name: str) -> Effect:
@@ -45,5 +48,8 @@ def register_effect(effect: Effect) -> Effect:
     """Add (or replace) an effect in the catalog under its `name`."""
     if not isinstance(effect, Effect) or not effect.name:
         raise DiagnosisError(f"register_effect needs an Effect instance with a name, got {effect!r}")
+    unknown = [k for k in (*effect.kinds, *effect.fixed) if k not in KINDS]
+    if unknown:
+        raise DiagnosisError(f"effect {effect.name!r} names the unknown parameter kind {unknown[0]!r}")
     EFFECTS[effect.name] = effect
     return effect

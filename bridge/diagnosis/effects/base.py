@@ -1,94 +1,36 @@
-"""What every effect shares: its parameters, how an applied effect changes a replay, and the evidence its
-signature is read from.
+"""What every effect shares. An effect is a named bundle of parameter kinds (`bridge.params.kinds`) on a target,
+plus what a diagnosis reads to find it (its signature, seeds to start fits from) and, optionally, how the proof
+conceals it in a generated world by a physical mechanism other than the model the diagnosis fits.
 
-An effect is one class with a small required surface (`name`, `targets`, `params`, `contribute`) and optional
-hooks (`signature`, `seeds`, `describe`). `contribute` says how the effect enters the Drake replay, as data:
+Required surface: `name`, `kinds` (and `targets`). Optional hooks: `members` (which kind on which target, when
+not all on the effect's target), `fixed` (kinds held at a value while the effect applies), `judged_by` (the
+kinds whose negligible size decides whether the effect is worth reporting), `signature`, `seeds`, `describe`;
+for the proof `draw_truth`, `conceal` and `recovered`.
 
-- scene values written into a context (`objects`: friction / mass / centre of mass, `forces`: constant external
-  forces), no rebuild;
-- a telemetry transform (`time_shift`, `joint_offsets`);
-- scene extras (geometry added before Finalize, e.g. a welded post) - a new scene per distinct extra;
-- context hooks run between samples (e.g. a friction region);
-- pose overrides for the world before the replay (a tilted support fixture and what stands on it) - a new
-  scene when a fixture moves.
+Parameters are named as everywhere in bridge: ``kind[target]`` (e.g. ``com_x[block]``).
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
 from ...errors import DiagnosisError
 from ...odb import ObjectDatabase
-from ...odb.geometry import contains_xy, half_extents, z_range
-from ...sim.scene import ObjectParams, SceneParams
-from ...values import Pose
+from ...params import Parameter, ParameterSet, Setting, kind_named
+from ...params.surfaces import movable_objects
 from ...world import WorldState
-
-
-@dataclass(frozen=True)
-class ParamSpec:
-    """One parameter: bounds, the value at which the effect does nothing (`null`, where fits start), a
-    typical size (`scale`: the finite-difference step and the unit of the normalised search space) and, when it
-    has one, the departure from null below which it makes no physical difference worth reporting
-    (`negligible`: a fit may still use it to soak up the start poses' error)."""
-
-    name: str
-    lower: float
-    upper: float
-    null: float
-    scale: float
-    unit: str = ""
-    doc: str = ""
-    negligible: float | None = None
-
-    def __post_init__(self) -> None:
-        if not (self.lower <= self.null <= self.upper) or not self.scale > 0:
-            raise DiagnosisError(f"parameter {self.name!r}: need lower <= null <= upper and scale > 0, got "
-                                 f"{self.lower}, {self.null}, {self.upper}, scale {self.scale}")
-
-
-@dataclass(frozen=True)
-class Applied:
-    """An effect applied with values: what a scene file stores and what a replay resolves."""
-
-    effect: str
-    target: str
-    params: tuple[tuple[str, float], ...] = ()
-
-    @classmethod
-    def of(cls, effect: str, target: str, values: Mapping[str, float] | None = None) -> "Applied":
-        return cls(effect, target, tuple((k, float(v)) for k, v in (values or {}).items()))
-
-    def values(self) -> dict[str, float]:
-        return dict(self.params)
-
-
-@dataclass(frozen=True)
-class Contribution:
-    """How an applied effect changes one replay (see the module docstring). Collections are tuples of pairs so
-    the value is hashable and picklable."""
-
-    objects: tuple[tuple[str, ObjectParams], ...] = ()
-    forces: tuple[tuple[str, tuple[float, float, float]], ...] = ()
-    time_shift: float = 0.0
-    joint_offsets: tuple[tuple[str, float], ...] = ()
-    extras: tuple = ()
-    hooks: tuple = ()
-    poses: tuple[tuple[str, Pose], ...] = ()
 
 
 @dataclass(frozen=True)
 class Evidence:
     """What an effect's signature reads: per (recording, object) features from the localisation, the recordings'
-    world (shared structure) and the robot's joints. Built by `identify` from a `Localisation`."""
+    world (shared structure). Built by `identify` from a `Localisation`."""
 
     features: tuple[Mapping[str, Any], ...]
     world: WorldState
     odb: ObjectDatabase
-    joint_kinds: Mapping[str, str] = field(default_factory=dict)
     force_scale: float | None = None  # observed / simulated force on the robot while it pushes (None: no sensor)
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
@@ -100,24 +42,72 @@ class Evidence:
         return float(np.mean(values)) if values else default
 
 
+@dataclass(frozen=True, eq=False)
+class Truth:
+    """What the proof concealed: effect, target, the parameters the diagnosis should recover (by name), and how."""
+
+    effect: str
+    target: str
+    params: dict[str, float]
+    mechanism: str
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"effect": self.effect, "target": self.target, "params": self.params, "mechanism": self.mechanism,
+                **({"extra": self.extra} if self.extra else {})}
+
+
+@dataclass(frozen=True)
+class Recovery:
+    """Did a diagnosis find the concealed parameters? The tolerance is stated in `text`."""
+
+    ok: bool
+    error: float | None  # the compared quantity's error, in its unit
+    unit: str
+    text: str
+
+
 class Effect:
-    """Base class. Subclasses set the class attributes and implement `targets`, `params`, `contribute`."""
+    """Base class. Subclasses set the class attributes and implement `targets`."""
 
     name: ClassVar[str] = ""
     summary: ClassVar[str] = ""  # one line: what is wrong in the world model
-    mechanism: ClassVar[str] = ""  # how the model enters the replay: scene values / telemetry / extra / hook
+    mechanism: ClassVar[str] = ""  # how the model enters the replay: scene values / telemetry / poses / extra
     signature_text: ClassVar[str] = ""  # what it leaves in the residual, in words
     smooth: ClassVar[bool] = True  # False: no useful gradient at the null value; fits start from `seeds`
+    kinds: ClassVar[tuple[str, ...]] = ()
+    fixed: ClassVar[Mapping[str, float]] = {}
+    judged_by: ClassVar[tuple[str, ...] | None] = None  # None: every kind with a negligible size
 
     def targets(self, world: WorldState, odb: ObjectDatabase, observed: Sequence[str]) -> tuple[str, ...]:
         raise NotImplementedError
 
-    def params(self, world: WorldState, odb: ObjectDatabase, target: str) -> tuple[ParamSpec, ...]:
-        raise NotImplementedError
+    def members(self, world: WorldState, odb: ObjectDatabase, target: str) -> tuple[tuple[str, str], ...]:
+        """(kind, target) of each parameter, in order (default: every kind on the effect's target)."""
+        return tuple((k, target) for k in self.kinds)
 
-    def contribute(self, world: WorldState, odb: ObjectDatabase, target: str,
-                   values: Mapping[str, float]) -> Contribution:
-        raise NotImplementedError
+    # --- parameters and models -----------------------------------------------------------------------------
+    def parameters(self, world: WorldState, odb: ObjectDatabase, target: str) -> tuple[Parameter, ...]:
+        """The free parameters (starting at the world model's values) and the fixed ones."""
+        free = tuple(Parameter.of(k, t, world, odb, effect=self.name) for k, t in self.members(world, odb, target))
+        held = tuple(Parameter(kind_named(k), target, value=v, effect=self.name) for k, v in self.fixed.items())
+        return free + held
+
+    def parameter_set(self, world: WorldState, odb: ObjectDatabase, target: str) -> ParameterSet:
+        return ParameterSet(self.parameters(world, odb, target), source=f"effect {self.name} on {target}")
+
+    def null_values(self, world: WorldState, odb: ObjectDatabase, target: str) -> dict[str, float]:
+        return {p.name: p.start for p in self.parameters(world, odb, target) if p.free}
+
+    def model(self, world: WorldState, odb: ObjectDatabase, target: str,
+              values: Mapping[str, float]) -> tuple[Setting, ...]:
+        """The effect's settings at `values` (by parameter name; missing ones at their null)."""
+        params = self.parameter_set(world, odb, target)
+        unknown = sorted(set(values) - set(params.names))
+        if unknown:
+            raise DiagnosisError(f"effect {self.name!r} on {target!r} has no parameter {unknown[0]!r}; parameters: "
+                                 f"{', '.join(params.names) or 'none'}")
+        return params.model([values.get(n, p.start) for n, p in zip(params.names, params.free)])
 
     # --- optional hooks --------------------------------------------------------------------------------------
     def signature(self, evidence: Evidence, target: str) -> float:
@@ -125,8 +115,8 @@ class Effect:
         return 0.5
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Starting values for a fit (default: the null values)."""
-        return [{p.name: p.null for p in self.params(evidence.world, evidence.odb, target)}]
+        """Starting values for a fit, by parameter name (default: the null values)."""
+        return [self.null_values(evidence.world, evidence.odb, target)]
 
     def describe(self, world: WorldState, odb: ObjectDatabase, target: str,
                  values: Mapping[str, float]) -> dict[str, float]:
@@ -134,83 +124,48 @@ class Effect:
         return {}
 
     def negligible(self, world: WorldState, odb: ObjectDatabase, target: str, values: Mapping[str, float]) -> bool:
-        """True when every parameter that declares a `negligible` size is within it of its null value (then the
-        effect adds nothing a user would act on; parameters without one, e.g. a mass the effect shares with
-        `mass`, do not count). False when no parameter declares one."""
-        sized = [p for p in self.params(world, odb, target) if p.negligible is not None]
-        return bool(sized) and all(abs(values.get(p.name, p.null) - p.null) < p.negligible for p in sized)
+        """True when every parameter that counts (`judged_by`) and declares a negligible size is within it of its
+        null value: then the effect adds nothing a user would act on. False when none declares one."""
+        sized = []
+        for kind_name, kind_target in self.members(world, odb, target):
+            if self.judged_by is not None and kind_name not in self.judged_by:
+                continue
+            kind = kind_named(kind_name)
+            size = kind.negligible(world, odb, kind_target)
+            if size is not None:
+                name = f"{kind_name}[{kind_target}]"
+                null = kind.null(world, odb, kind_target)
+                sized.append(abs(values.get(name, null) - null) < size)
+        return bool(sized) and all(sized)
 
-    # --- shared helpers -----------------------------------------------------------------------------------------
-    def null_values(self, world: WorldState, odb: ObjectDatabase, target: str) -> dict[str, float]:
-        return {p.name: p.null for p in self.params(world, odb, target)}
+    # --- the proof (optional) ----------------------------------------------------------------------------------
+    def draw_truth(self, scene, odb: ObjectDatabase, rng: np.random.Generator, magnitude: int,
+                   sign: float) -> Truth:
+        """The concealed values of a proof case (magnitude 0, 1, 2: small, medium, large; `sign` +-1 when the
+        effect can go either way); `scene` is a `bridge.prove.scenes.SceneSpec`."""
+        raise DiagnosisError(f"the proof cannot conceal effect {self.name!r}")
 
-    def check_values(self, world: WorldState, odb: ObjectDatabase, target: str,
-                     values: Mapping[str, float], source: str | None = None) -> dict[str, float]:
-        """Every parameter given, nothing unknown, inside the bounds (a scene file is user input)."""
-        specs = {p.name: p for p in self.params(world, odb, target)}
-        unknown = sorted(set(values) - set(specs))
-        if unknown:
-            raise DiagnosisError(f"effect {self.name!r} has no parameter {unknown[0]!r}; parameters: "
-                                 f"{', '.join(specs) or 'none'}", source=source)
-        out = {}
-        for name, spec in specs.items():
-            if name not in values:
-                raise DiagnosisError(f"effect {self.name!r} needs parameter {name!r}", source=source)
-            value = values[name]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise DiagnosisError(f"effect {self.name!r}: {name} must be a finite number, got {value!r}",
-                                     source=source)
-            out[name] = float(value)
-        return out
+    def conceal(self, truth: Truth, scene, odb: ObjectDatabase, rollout):
+        """(the true rollout, the telemetry the recorder writes) of one generated recording, from the exact
+        `rollout` of the world model: the effect made by a physical mechanism, not by the model."""
+        raise DiagnosisError(f"the proof cannot conceal effect {self.name!r}")
 
+    def target_matches(self, concealed: str, found: str, world: WorldState, odb: ObjectDatabase) -> bool:
+        """Whether a diagnosis that names `found` found the concealed target."""
+        return found == concealed
 
-# --- world helpers shared by effects ----------------------------------------------------------------------------
-def movable_objects(world: WorldState, odb: ObjectDatabase) -> tuple[str, ...]:
-    return tuple(n for n, o in world.objects.items() if not odb.get(o.type).fixed)
-
-
-def support_of(world: WorldState, odb: ObjectDatabase, name: str) -> str | None:
-    """The fixture an object stands on: its footprint holds the object's centre and its top is the highest
-    one below the object's bottom (within 2 cm)."""
-    obj = world.objects[name]
-    bottom = z_range(odb.get(obj.type).geometry, obj.pose)[0]
-    best, best_top = None, -math.inf
-    for other, o in world.objects.items():
-        t = odb.get(o.type)
-        if not t.fixed or t.geometry is None:
-            continue
-        top = z_range(t.geometry, o.pose)[1]
-        if top <= bottom + 0.005 and bottom - top < 0.02 and contains_xy(t.geometry, o.pose, obj.pose.position) \
-                and top > best_top:
-            best, best_top = other, top
-    return best
+    def recovered(self, truth: Truth, found: Mapping[str, float], model: Sequence[Setting], world: WorldState,
+                  odb: ObjectDatabase) -> Recovery:
+        """Whether `found` (the winner's parameters) matches `truth`, within a tolerance stated in the text."""
+        return Recovery(False, None, "", f"no recovery check for {self.name}")
 
 
-def supported_by(world: WorldState, odb: ObjectDatabase, surface: str) -> tuple[str, ...]:
-    return tuple(n for n in movable_objects(world, odb) if support_of(world, odb, n) == surface)
+# --- helpers shared by effects ----------------------------------------------------------------------------------
+def movable_observed(world: WorldState, odb: ObjectDatabase, observed: Sequence[str]) -> tuple[str, ...]:
+    movable = movable_objects(world, odb)
+    return tuple(n for n in observed if n in movable)
 
 
-def surface_top(world: WorldState, odb: ObjectDatabase, surface: str) -> float:
-    o = world.objects[surface]
-    return z_range(odb.get(o.type).geometry, o.pose)[1]
-
-
-def footprint_half(world: WorldState, odb: ObjectDatabase, name: str) -> np.ndarray:
-    """Half extents (x, y, z) of an object's bounding box in its own frame."""
-    return half_extents(odb.get(world.objects[name].type).geometry)
-
-
-def merge_object_params(a: ObjectParams, b: ObjectParams) -> ObjectParams:
-    """b's values where it has them, a's elsewhere."""
-    return replace(a, **{k: v for k, v in vars(b).items() if v is not None})
-
-
-def scene_params(contributions: Sequence[Contribution]) -> SceneParams:
-    objects: dict[str, ObjectParams] = {}
-    forces: dict[str, np.ndarray] = {}
-    for c in contributions:
-        for name, p in c.objects:
-            objects[name] = merge_object_params(objects.get(name, ObjectParams()), p)
-        for name, f in c.forces:
-            forces[name] = forces.get(name, np.zeros(3)) + np.asarray(f, dtype=float)
-    return SceneParams(objects=objects, external_forces={n: tuple(float(x) for x in f) for n, f in forces.items()})
+def pname(kind: str, target: str) -> str:
+    """A parameter's name: ``kind[target]``."""
+    return f"{kind}[{target}]"

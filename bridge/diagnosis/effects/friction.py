@@ -6,8 +6,11 @@ object slides on by v^2 / (2 mu g)) and in how the pusher slips along the object
 """
 from __future__ import annotations
 
-from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of
-from ...sim.scene import ObjectParams
+from ...params.surfaces import supported_by, surfaces_under
+from ...sim.friction import combined_friction
+from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
+
+FACTORS = (1.5, 2.2, 3.2)  # the proof's surface coefficient, times or divided by this (small, medium, large)
 
 
 class Friction(Effect):
@@ -16,18 +19,35 @@ class Friction(Effect):
     mechanism = "scene values: the coefficient written into the context (no rebuild)"
     signature_text = ("residual grows mostly after the pusher stops (slide-on distance) and as slip along the "
                       "pushed face; the onset is at the first contact or at the end of the push")
+    kinds = ("friction",)
 
     def targets(self, world, odb, observed):
-        names = [n for n in observed if n in movable_objects(world, odb)]
-        surfaces = [s for s in (support_of(world, odb, n) for n in names) if s]
-        return tuple(dict.fromkeys([*names, *surfaces]))
-
-    def params(self, world, odb, target):
-        mu = odb.get(world.objects[target].type).physics.friction
-        return (ParamSpec("mu", 0.02, max(1.5, 3 * mu), mu, 0.3 * mu, "", "Coulomb coefficient (static = dynamic)"),)
-
-    def contribute(self, world, odb, target, values):
-        return Contribution(objects=((target, ObjectParams(friction=values["mu"])),))
+        names = movable_observed(world, odb, observed)
+        return tuple(dict.fromkeys([*names, *surfaces_under(world, odb, names)]))
 
     def signature(self, evidence: Evidence, target: str) -> float:
         return 0.35 + 0.5 * evidence.mean("slide_share")
+
+    # --- the proof: the surface's coefficient (another surface material); the model may fit the object's ---------
+    def draw_truth(self, scene, odb, rng, magnitude, sign):
+        mu_obj = odb.get(scene.object_type).physics.friction
+        mu = odb.get(scene.surface_type).physics.friction * FACTORS[magnitude] ** sign
+        return Truth(self.name, scene.surface, {pname("friction", scene.surface): mu}, "the surface's coefficient",
+                     {"pair_mu": combined_friction(mu_obj, mu)})
+
+    def conceal(self, truth, scene, odb, rollout):
+        mu = truth.params[pname("friction", scene.surface)]
+        return rollout.with_values(rollout.values.with_object(scene.surface, friction=mu)), rollout.telemetry
+
+    def target_matches(self, concealed, found, world, odb):
+        """The surface's coefficient or the object's on it: either changes the pair's."""
+        return found == concealed or found in supported_by(world, odb, concealed)
+
+    def recovered(self, truth, found, model, world, odb):
+        mus = {s.target: s.value for s in model if s.kind == "friction"}
+        obj = next(n for n, o in world.objects.items() if not odb.get(o.type).fixed)
+        mu_o = mus.get(obj, odb.get(world.objects[obj].type).physics.friction)
+        mu_s = mus.get(truth.target, odb.get(world.objects[truth.target].type).physics.friction)
+        pair, true_pair = combined_friction(mu_o, mu_s), truth.extra["pair_mu"]
+        err = abs(pair - true_pair)
+        return Recovery(err <= 0.25 * true_pair, err, "", f"pair mu {pair:.3f} vs {true_pair:.3f} (tolerance 25 %)")

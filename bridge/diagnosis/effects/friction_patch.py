@@ -1,22 +1,28 @@
 """`friction_patch`: a region of the support surface has a different friction coefficient (a worn, wet,
 taped or different-material area).
 
-Modelled as a scene extra: a micrometre-thin sheet (`bridge.sim.extras.SurfacePatch`, raised 1 um) over an
-axis-aligned square (centre cx, cy, half size `half`) with its own coefficient `mu`; an object over it rests on
-the sheet, so the pair's coefficient there is 2 mu mu_object / (mu + mu_object), and an object straddling its
-edge feels the two coefficients side by side (the torque a uniform blend would miss). A new scene per value
-(~40 ms).
+Modelled as a scene extra (`bridge.params.kinds.Patch`): a micrometre-thin sheet over an axis-aligned square
+(centre cx, cy, half size `half`) with its own coefficient `mu`; an object over it rests on the sheet, so the
+pair's coefficient there is 2 mu mu_object / (mu + mu_object), and an object straddling its edge feels the two
+coefficients side by side (the torque a uniform blend would miss). A new scene per value (~40 ms).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ...odb.geometry import half_extents
+from ...params.surfaces import supported_by, surfaces_under
 from ...sim.extras import SurfacePatch
 from ...sim.friction import combined_friction, surface_friction_for
-from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of, supported_by, surface_top
+from .base import Effect, Evidence, Recovery, Truth, pname
 
-RAISED = 1.0e-6  # m: the sheet carries what stands on it (objects sink ~0.6 um), its edge is no step
+HIGHER = (1.2, 1.32, 1.44)  # the proof's pair coefficient inside, times this (small, medium, large) ...
+LOWER = (0.78, 0.66, 0.56)  # ... or this
+
+
+def _object_mu(world, odb, surface: str) -> float:
+    objects = supported_by(world, odb, surface)
+    return odb.get(world.objects[objects[0]].type).physics.friction if objects else 0.5
 
 
 class FrictionPatch(Effect):
@@ -26,10 +32,10 @@ class FrictionPatch(Effect):
     signature_text = ("onset in the middle of a push, when the object reaches the same place in several "
                       "recordings; the object keeps moving (no stall), it turns or slides on differently")
     smooth = False
+    kinds = ("patch_cx", "patch_cy", "patch_half", "patch_mu")
 
     def targets(self, world, odb, observed):
-        surfaces = [support_of(world, odb, n) for n in observed if n in movable_objects(world, odb)]
-        return tuple(dict.fromkeys(s for s in surfaces if s))
+        return surfaces_under(world, odb, observed)
 
     def _pair(self, world, odb, target) -> float:
         objects = supported_by(world, odb, target)
@@ -37,31 +43,11 @@ class FrictionPatch(Effect):
         mu_o = odb.get(world.objects[objects[0]].type).physics.friction if objects else mu_s
         return combined_friction(mu_o, mu_s)
 
-    def _object_mu(self, evidence: Evidence, target: str) -> float:
-        objects = supported_by(evidence.world, evidence.odb, target)
-        w = evidence.world
-        return evidence.odb.get(w.objects[objects[0]].type).physics.friction if objects else 0.5
-
-    def params(self, world, odb, target):
-        surface = world.objects[target]
-        hx, hy, _ = half_extents(odb.get(surface.type).geometry)
-        cx, cy = surface.pose.xyz[:2]
-        mu = odb.get(surface.type).physics.friction
-        return (ParamSpec("cx", cx - hx, cx + hx, cx, 0.01, "m", "region centre, world x"),
-                ParamSpec("cy", cy - hy, cy + hy, cy, 0.01, "m", "region centre, world y"),
-                ParamSpec("half", 0.005, max(hx, hy), 0.05, 0.01, "m", "half size of the square region"),
-                ParamSpec("mu", 0.003, 3.0, mu, 0.3 * mu, "", "the region's own coefficient (like the surface's)"))
-
-    def contribute(self, world, odb, target, values):
-        h = values["half"]
-        sheet = SurfacePatch("friction_patch", (values["cx"] - h, values["cx"] + h, values["cy"] - h, values["cy"] + h),
-                             surface_top(world, odb, target), values["mu"], raised=RAISED)
-        return Contribution(extras=(sheet,))
-
     def describe(self, world, odb, target, values):
         objects = supported_by(world, odb, target)
-        mu_o = odb.get(world.objects[objects[0]].type).physics.friction if objects else values["mu"]
-        return {"pair_mu_inside": combined_friction(mu_o, values["mu"])}
+        mu = values[pname("patch_mu", target)]
+        mu_o = odb.get(world.objects[objects[0]].type).physics.friction if objects else mu
+        return {"pair_mu_inside": combined_friction(mu_o, mu)}
 
     def signature(self, evidence: Evidence, target: str) -> float:
         late = [f for f in evidence.significant() if f.get("onset_rel") is not None and f["onset_rel"] > 0.15]
@@ -73,7 +59,8 @@ class FrictionPatch(Effect):
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
         """Squares that begin where the objects' leading edges were at the onsets (the median entry point and the
         first single one), small and large, with a lower and a higher coefficient."""
-        specs = {p.name: p for p in self.params(evidence.world, evidence.odb, target)}
+        mu_bounds = next(p.bounds for p in self.parameters(evidence.world, evidence.odb, target)
+                         if p.kind.name == "patch_mu")
         pair = self._pair(evidence.world, evidence.odb, target)
         late = [f for f in evidence.significant()
                 if f.get("onset_rel") is not None and f["onset_rel"] > 0.1 and f.get("onset_xy_sim") is not None]
@@ -89,7 +76,39 @@ class FrictionPatch(Effect):
             for half in (0.06, 0.15):
                 c = point + d * half
                 for factor in (0.55, 1.45):
-                    mu_o = self._object_mu(evidence, target)
-                    mu = float(np.clip(surface_friction_for(factor * pair, mu_o), specs["mu"].lower, specs["mu"].upper))
-                    out.append({"cx": float(c[0]), "cy": float(c[1]), "half": half, "mu": mu})
+                    mu_o = _object_mu(evidence.world, evidence.odb, target)
+                    mu = float(np.clip(surface_friction_for(factor * pair, mu_o), *mu_bounds))
+                    out.append({pname("patch_cx", target): float(c[0]), pname("patch_cy", target): float(c[1]),
+                                pname("patch_half", target): half, pname("patch_mu", target): mu})
         return out
+
+    # --- the proof: a sheet of another material flush on the surface over a rectangle (objects on it press on
+    #     sheet and surface, so the pair coefficient there is the mean of the two pairs') ------------------------
+    def draw_truth(self, scene, odb, rng, magnitude, sign):
+        mu_obj = odb.get(scene.object_type).physics.friction
+        mu_surf = odb.get(scene.surface_type).physics.friction
+        pair0 = combined_friction(mu_obj, mu_surf)
+        pair = pair0 * (HIGHER[magnitude] if sign > 0 else LOWER[magnitude])
+        pair_sheet = 2 * pair - pair0
+        mu_tile = pair_sheet * mu_obj / (2 * mu_obj - pair_sheet)
+        # a rectangle ahead of the start area on one side: about half of the pushes run into it
+        x0 = scene.centre[0] + rng.uniform(0.03, 0.06)
+        x1 = x0 + rng.uniform(0.25, 0.35)
+        edge = scene.centre[1] + rng.uniform(-0.02, 0.02)
+        y0, y1 = (edge, edge + 0.4) if rng.random() < 0.5 else (edge - 0.4, edge)
+        return Truth(self.name, scene.surface, {"pair_mu_inside": pair, "x0": x0},
+                     "a thin sheet of another material on the surface", {"region": [x0, x1, y0, y1], "tile_mu": mu_tile})
+
+    def conceal(self, truth, scene, odb, rollout):
+        top = scene.surface_xyz[2] + half_extents(odb.get(scene.surface_type).geometry)[2]
+        return rollout.with_extras(SurfacePatch("sheet", tuple(truth.extra["region"]), top, truth.extra["tile_mu"])), \
+            rollout.telemetry
+
+    def recovered(self, truth, found, model, world, odb):
+        mus = {s.target: s.value for s in model if s.kind == "friction"}
+        obj = next(n for n, o in world.objects.items() if not odb.get(o.type).fixed)
+        mu_o = mus.get(obj, odb.get(world.objects[obj].type).physics.friction)
+        pair = combined_friction(mu_o, found[pname("patch_mu", truth.target)])
+        true = truth.params["pair_mu_inside"]
+        err = abs(pair - true)
+        return Recovery(err <= 0.3 * true, err, "", f"pair mu inside {pair:.3f} vs {true:.3f} (30 %)")

@@ -1,17 +1,22 @@
 """`hidden_obstacle`: a fixed object that is not in the world model (a clamp, a cable, a forgotten part).
 
-Modelled as a welded upright post of radius `RADIUS` at (x, y) on the surface: a scene extra, so each position
-is a new scene (building one takes a few tens of milliseconds).
+Modelled as a welded upright post of radius `OBSTACLE_RADIUS` at (x, y) on the surface
+(`bridge.params.kinds.Obstacle`): a scene extra, so each position is a new scene (building one takes a few tens
+of milliseconds).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects, support_of, surface_top
-from ...odb.geometry import half_extents, z_range
+from ...odb.geometry import half_extents
+from ...params.kinds import OBSTACLE_RADIUS
+from ...params.surfaces import surfaces_under
 from ...sim.extras import WeldedShape
+from .base import Effect, Evidence, Recovery, Truth, pname
 
-RADIUS = 0.015  # m
+SIZES = (0.02, 0.03, 0.045)  # m: the proof's boxes (small, medium, large)
 
 
 class HiddenObstacle(Effect):
@@ -21,26 +26,10 @@ class HiddenObstacle(Effect):
     signature_text = ("abrupt onset in the middle of a push at the same place in several recordings; the real "
                       "object stalls or is deflected while the simulated one moves on")
     smooth = False
+    kinds = ("obstacle_x", "obstacle_y")
 
     def targets(self, world, odb, observed):
-        surfaces = [support_of(world, odb, n) for n in observed if n in movable_objects(world, odb)]
-        return tuple(dict.fromkeys(s for s in surfaces if s))
-
-    def params(self, world, odb, target):
-        surface = world.objects[target]
-        hx, hy, _ = half_extents(odb.get(surface.type).geometry)
-        cx, cy = surface.pose.xyz[:2]
-        return (ParamSpec("x", cx - hx, cx + hx, cx + hx, 0.005, "m", "post centre, world x"),
-                ParamSpec("y", cy - hy, cy + hy, cy + hy, 0.005, "m", "post centre, world y"))
-
-    def contribute(self, world, odb, target, values):
-        top = surface_top(world, odb, target)
-        tallest = max([z_range(odb.get(o.type).geometry, o.pose)[1] for n, o in world.objects.items()
-                       if not odb.get(o.type).fixed] + [top + 0.05])
-        height = tallest - top + 0.05
-        post = WeldedShape("hidden_obstacle", "cylinder", (RADIUS, height), (values["x"], values["y"], top + height / 2),
-                           friction=0.5)
-        return Contribution(extras=(post,))
+        return surfaces_under(world, odb, observed)
 
     def signature(self, evidence: Evidence, target: str) -> float:
         late = [f for f in evidence.significant() if f.get("onset_rel") is not None and f["onset_rel"] > 0.1]
@@ -50,19 +39,42 @@ class HiddenObstacle(Effect):
         return min(1.0, 0.3 + 0.3 * len(late) / max(1, len(evidence.significant())) + 0.4 * stall)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
+        """Posts just ahead of where the real objects' leading edges stalled: the median spot and the first few."""
         spots = []
         for f in evidence.significant():
             if f.get("onset_rel") is None or f["onset_rel"] <= 0.05 or f.get("onset_xy_obs") is None:
                 continue
             d = np.asarray(f["direction"])
-            spots.append(np.asarray(f["onset_xy_obs"]) + d * (f.get("reach", 0.05) + RADIUS))
+            spots.append(np.asarray(f["onset_xy_obs"]) + d * (f.get("reach", 0.05) + OBSTACLE_RADIUS))
         if not spots:
             return []
         spots = np.array(spots)
-        out = [np.median(spots, axis=0)] + [s for s in spots[:3]]
         seeds, seen = [], []
-        for s in out:
+        for s in [np.median(spots, axis=0)] + [s for s in spots[:3]]:
             if all(np.linalg.norm(s - q) > 0.01 for q in seen):
                 seen.append(s)
-                seeds.append({"x": float(s[0]), "y": float(s[1])})
+                seeds.append({pname("obstacle_x", target): float(s[0]), pname("obstacle_y", target): float(s[1])})
         return seeds[:3]
+
+    # --- the proof: a welded box of random size and yaw; the model places a post ------------------------------
+    def draw_truth(self, scene, odb, rng, magnitude, sign):
+        size = SIZES[magnitude]
+        reach = half_extents(odb.get(scene.object_type).geometry)[0]
+        x = scene.centre[0] + reach + 0.055 + size / 2 + rng.uniform(-0.01, 0.01)
+        y = scene.centre[1] + rng.uniform(-0.025, 0.025)
+        s = scene.surface
+        return Truth(self.name, s, {pname("obstacle_x", s): x, pname("obstacle_y", s): y}, "a welded box",
+                     {"size": size, "yaw": rng.uniform(-0.8, 0.8)})
+
+    def conceal(self, truth, scene, odb, rollout):
+        top = scene.surface_xyz[2] + half_extents(odb.get(scene.surface_type).geometry)[2]
+        s, size = scene.surface, truth.extra["size"]
+        box = WeldedShape("obstacle", "box", (size, size, 0.06), (truth.params[pname("obstacle_x", s)],
+                                                                  truth.params[pname("obstacle_y", s)], top + 0.03),
+                          (0.0, 0.0, truth.extra["yaw"]), friction=0.5)
+        return rollout.with_extras(box), rollout.telemetry
+
+    def recovered(self, truth, found, model, world, odb):
+        x, y = pname("obstacle_x", truth.target), pname("obstacle_y", truth.target)
+        d = math.hypot(found[x] - truth.params[x], found[y] - truth.params[y])
+        return Recovery(d <= 0.025, d, "m", f"post {d * 1e3:.0f} mm from the box centre (25 mm)")

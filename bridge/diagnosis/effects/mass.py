@@ -9,45 +9,53 @@ from __future__ import annotations
 
 import math
 
-from ...sim.scene import ObjectParams
+from ...sim.extras import Slug
 from ...sim.shapes import mass_properties
-from .base import Contribution, Effect, Evidence, ParamSpec, movable_objects
+from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
+
+ADDED = (0.5, 1.0, 2.0)  # the proof's slug, in masses of the object (small, medium, large)
 
 
 class Mass(Effect):
     name = "mass"
     summary = "an object's mass differs from the object database's"
     mechanism = ("scene values: the body's mass written into the context, its rotational inertia scaled as "
-                 "`spread` says")
+                 "`mass_spread` says")
     signature_text = ("the robot's force scaled by a constant factor while the path barely changes (no slide-on "
                       "change); small along-push lag growing with the push force")
     smooth = False  # the friction fit takes up a force ratio first: start from the ratio instead
+    kinds = ("mass", "mass_spread")
 
     def targets(self, world, odb, observed):
-        return tuple(n for n in observed if n in movable_objects(world, odb))
-
-    def params(self, world, odb, target):
-        m = mass_properties(odb, world.objects[target].type).mass
-        return (ParamSpec("mass", 0.2 * m, 5.0 * m, m, 0.3 * m, "kg", negligible=0.05 * m),
-                ParamSpec("spread", 0.0, 1.5, 1.0, 0.5, "",
-                          "where the extra mass sits: 1 spread like the object's own (uniform density), 0 at "
-                          "the centre of mass (a compact weight inside: no added rotational inertia)"))
-
-    def contribute(self, world, odb, target, values):
-        m0 = mass_properties(odb, world.objects[target].type).mass
-        mass, spread = values["mass"], values.get("spread", 1.0)
-        return Contribution(objects=((target, ObjectParams(
-            mass=mass, inertia_scale=max(0.05, 1.0 + spread * (mass / m0 - 1.0)))),))
+        return movable_observed(world, odb, observed)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
         """The mass scaled by the force ratio (observed / simulated) when a force was recorded, and its square
         root (friction may share the ratio); without a force, the null and a third more or less."""
-        spec = self.params(evidence.world, evidence.odb, target)[0]
+        mass = next(p for p in self.parameters(evidence.world, evidence.odb, target) if p.kind.name == "mass")
         scale = evidence.force_scale
         factors = (scale, math.sqrt(scale)) if scale is not None else (1.0, 1.35, 0.75)
-        return [{"mass": float(min(max(f * spec.null, spec.lower), spec.upper)), "spread": spread}
+        lo, hi = mass.bounds
+        return [{mass.name: float(min(max(f * mass.start, lo), hi)), pname("mass_spread", target): spread}
                 for f in factors for spread in (1.0, 0.0)]
 
     def signature(self, evidence: Evidence, target: str) -> float:
         off = 0.0 if evidence.force_scale is None else min(1.0, abs(math.log(evidence.force_scale)) / 0.3)
         return 0.25 + 0.3 * evidence.mean("along") + 0.45 * off
+
+    # --- the proof: a dense slug welded at the centre; the model changes the body's mass -----------------------
+    def draw_truth(self, scene, odb, rng, magnitude, sign):
+        m0 = mass_properties(odb, scene.object_type).mass
+        added = ADDED[magnitude] * m0
+        return Truth(self.name, scene.object, {pname("mass", scene.object): m0 + added},
+                     "a dense slug welded at the centre", {"slug_mass": added})
+
+    def conceal(self, truth, scene, odb, rollout):
+        return rollout.with_extras(Slug(scene.object, truth.extra["slug_mass"], (0.0, 0.0, 0.0), 0.01)), \
+            rollout.telemetry
+
+    def recovered(self, truth, found, model, world, odb):
+        name = pname("mass", truth.target)
+        err = abs(found[name] - truth.params[name])
+        return Recovery(err <= 0.3 * truth.params[name], err, "kg",
+                        f"mass {found[name]:.3f} vs {truth.params[name]:.3f} kg (30 %)")

@@ -1,7 +1,7 @@
 """`none`: the world model explains the observations to within their noise."""
 from __future__ import annotations
 
-from .base import Contribution, Effect, Evidence
+from .base import Effect, Evidence, Recovery
 
 
 class NoEffect(Effect):
@@ -13,11 +13,16 @@ class NoEffect(Effect):
     def targets(self, world, odb, observed):
         return ("world",)
 
-    def params(self, world, odb, target):
-        return ()
-
-    def contribute(self, world, odb, target, values):
-        return Contribution()
-
     def signature(self, evidence: Evidence, target: str) -> float:
         return 0.0 if evidence.significant() else 1.0
+
+    def draw_truth(self, scene, odb, rng, magnitude, sign):
+        from .base import Truth
+
+        return Truth("none", "world", {}, "nothing concealed")
+
+    def conceal(self, truth, scene, odb, rollout):
+        return rollout, rollout.telemetry
+
+    def recovered(self, truth, found, model, world, odb):
+        return Recovery(True, None, "", "clean")

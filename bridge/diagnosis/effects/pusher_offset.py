@@ -5,33 +5,20 @@ target per joint (`robot:joint`), so one encoder offset is fitted at a time.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
-from .base import Contribution, Effect, Evidence, ParamSpec
+from ...values import Pose
+from .base import Effect, Evidence, Recovery, Truth, pname
 
 FEW_JOINTS = 3
+SIZES = (0.002, 0.004, 0.008)  # m: the proof's base offsets (small, medium, large)
 
 
-_KINDS: dict[tuple[str, str], dict[str, str]] = {}
-
-
-def joint_kinds(world, odb) -> dict[str, str]:
-    """'prismatic' or 'revolute' for each robot joint, read from the model once per robot type."""
-    if world.robot is None:
-        return {}
-    key = (world.robot.type, str(odb.root))
-    if key not in _KINDS:
-        from ...sim.scene import build_scene
-
-        robot_only = replace(world, objects={}, facts=frozenset())
-        scene = build_scene(robot_only, odb)
-        _KINDS[key] = {j: scene.plant.GetJointByName(j, scene.robot_instance).type_name() for j in scene.robot_joints}
-    return _KINDS[key]
-
-
-def _gripper(world, odb) -> set[str]:
+def _moving_joints(world, odb) -> list[str]:
     spec = odb.get(world.robot.type).robot
-    return set(spec.gripper.joints) if spec.gripper else set()
+    gripper = set(spec.gripper.joints) if spec.gripper else set()
+    return [j for j in spec.joints if j not in gripper]
 
 
 class PusherOffset(Effect):
@@ -40,38 +27,50 @@ class PusherOffset(Effect):
     mechanism = "telemetry transform: a constant offset added to joint positions"
     signature_text = ("residual from the first contact on, contact earlier or later than simulated; a "
                       "different contact point turns the object differently (across-push and yaw)")
+    kinds = ("joint_offset",)
 
     def targets(self, world, odb, observed):
         if world.robot is None:
             return ()
-        joints = [j for j in odb.get(world.robot.type).robot.joints if j not in _gripper(world, odb)]
+        joints = _moving_joints(world, odb)
         if len(joints) <= FEW_JOINTS:
             return (world.robot.name,)
         return tuple(f"{world.robot.name}:{j}" for j in joints)
 
-    def _joints(self, world, odb, target) -> list[str]:
-        if ":" in target:
-            return [target.split(":", 1)[1]]
-        return [j for j in odb.get(world.robot.type).robot.joints if j not in _gripper(world, odb)]
-
-    def params(self, world, odb, target):
-        kinds = joint_kinds(world, odb)
-        specs = []
-        for j in self._joints(world, odb, target):
-            if kinds.get(j) == "prismatic":
-                specs.append(ParamSpec(j, -0.03, 0.03, 0.0, 0.002, "m", negligible=0.0005))
-            else:
-                specs.append(ParamSpec(j, -0.2, 0.2, 0.0, 0.01, "rad", negligible=0.002))
-        return tuple(specs)
-
-    def contribute(self, world, odb, target, values):
-        return Contribution(joint_offsets=tuple((j, float(values[j])) for j in self._joints(world, odb, target)))
+    def members(self, world, odb, target):
+        joints = [target.split(":", 1)[1]] if ":" in target else _moving_joints(world, odb)
+        return tuple(("joint_offset", j) for j in joints)
 
     def describe(self, world, odb, target, values):
-        if ":" not in target and all(joint_kinds(world, odb).get(j) == "prismatic" for j in values):
-            return {"offset_mm": 1e3 * sum(v * v for v in values.values()) ** 0.5}
+        types = odb.get(world.robot.type).robot.joint_type
+        if ":" not in target and all(types.get(j) == "prismatic" for _, j in self.members(world, odb, target)):
+            return {"offset_mm": 1e3 * math.sqrt(sum(v * v for v in values.values()))}
         return {}
 
     def signature(self, evidence: Evidence, target: str) -> float:
         early = 1.0 - min(1.0, max(0.0, evidence.mean("onset_rel", 0.0)))
         return 0.2 + 0.4 * early + 0.2 * (evidence.mean("across") + evidence.mean("yaw"))
+
+    # --- the proof: the robot's base mounted off by (dx, dy); the model offsets the joint readings --------------
+    def draw_truth(self, scene, odb, rng, magnitude, sign):
+        size, angle = SIZES[magnitude], rng.uniform(-math.pi, math.pi)
+        return Truth(self.name, scene.robot, {pname("joint_offset", "pusher_x"): size * math.cos(angle),
+                                              pname("joint_offset", "pusher_y"): size * math.sin(angle)},
+                     "the robot's base mounted off")
+
+    def conceal(self, truth, scene, odb, rollout):
+        world = rollout.world
+        base = world.robot.base_pose
+        dx, dy = truth.params[pname("joint_offset", "pusher_x")], truth.params[pname("joint_offset", "pusher_y")]
+        moved = Pose((base.xyz[0] + dx, base.xyz[1] + dy, base.xyz[2]), base.quat)
+        return rollout.with_world(replace(world, robot=replace(world.robot, base_pose=moved))), rollout.telemetry
+
+    def target_matches(self, concealed, found, world, odb):
+        """The robot, or one of its joints (`robot:joint`)."""
+        return found == concealed or found.startswith(concealed + ":")
+
+    def recovered(self, truth, found, model, world, odb):
+        d = math.sqrt(sum((found.get(k, 0.0) - v) ** 2 for k, v in truth.params.items()))
+        size = math.sqrt(sum(v ** 2 for v in truth.params.values()))
+        return Recovery(d <= 0.3 * size + 0.001, d, "m", f"offset {d * 1e3:.1f} mm off a {size * 1e3:.1f} mm offset "
+                                                         f"(30 % + 1 mm)")

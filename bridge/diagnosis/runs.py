@@ -1,0 +1,176 @@
+"""Models run on trials: the diagnosis' view of the rollout layer. A model (a tuple of `bridge.params.Setting`)
+on a prepared trial is one rollout (`bridge.params.trial_rollout`), simulated on the executor; its replay is
+turned into noise-normalised residuals here, in the calling process.
+
+A replay that fails (`SimulationFailure`) is counted (`Runner.failures`, reported in diagnosis.json) and its
+residual is `compare.FAILED` on every compared component, so a search ranks the model last; any other error
+(a target that names nothing, a malformed value) is bad input and reaches the user.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..errors import DiagnosisError
+from ..odb import ObjectDatabase
+from ..params import Model, trial_rollout
+from ..rollout.compare import failed_residual, pose_residual, sample_track
+from ..rollout.executors import Executor
+from ..rollout.rollout import Job, Outcome
+from ..rollout.trials import Trial
+from ..sim.simulate import SimOptions
+from ..values import Contact
+from .residuals import (ForceSeries, ObservedSeries, force_normalised, force_residual, force_series, normalised,
+                        observed_series)
+
+SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
+FAILED_FORCE = 1.0e3  # N per component of a failed replay's force residual
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """A trial with its observed series (per observed object that the world has as a free body) and, when the
+    robot's force was recorded, its force series."""
+
+    trial: Trial
+    series: tuple[ObservedSeries, ...]
+    end: float  # s simulated
+    force: ForceSeries | None = None
+
+    @property
+    def name(self) -> str:
+        return self.trial.name
+
+    @property
+    def world(self):
+        return self.trial.world
+
+    @property
+    def objects(self) -> tuple[str, ...]:
+        return tuple(s.object for s in self.series)
+
+
+def prepare(trial: Trial, odb: ObjectDatabase, rate: float = 25.0) -> Prepared:
+    series = []
+    for track in trial.observations:
+        if track.object not in trial.world.objects:
+            raise DiagnosisError(f"observed object {track.object!r} is not in the world state", source=str(trial.source))
+        if odb.get(trial.world.objects[track.object].type).fixed:
+            continue
+        series.append(observed_series(track, rate))
+    if not series:
+        raise DiagnosisError("no observed free object to compare with", source=str(trial.source))
+    force = force_series(trial.force, rate) if trial.force is not None and trial.world.robot is not None else None
+    last_obs = max(float(s.times[-1]) for s in series)
+    end = max(last_obs, float(trial.telemetry.times[-1])) + 0.02
+    return Prepared(trial, tuple(series), end, force)
+
+
+@dataclass(frozen=True, eq=False)
+class Run:
+    """One model on one trial: residual (n, 6) per observed object and (n, 3) of the robot's force when it was
+    recorded, optionally the simulated tracks and contacts."""
+
+    trial: str
+    residuals: Mapping[str, np.ndarray]
+    normalised: np.ndarray  # every object's measured components / sigma, then the force's, flattened
+    failed: str | None = None
+    sim_times: np.ndarray | None = None
+    tracks: Mapping[str, np.ndarray] | None = None
+    contacts: tuple[Contact, ...] = ()
+    wall: float = 0.0
+    force_residual: np.ndarray | None = None
+    force_chi2: float = 0.0  # the force rows' share of chi2
+    force_n: int = 0
+
+    @property
+    def chi2(self) -> float:
+        return float(self.normalised @ self.normalised)
+
+
+def run_of(p: Prepared, outcome: Outcome, want_tracks: bool = False) -> Run:
+    """The residuals of a prepared trial against a job's outcome."""
+    result = outcome.result
+    residuals, parts = {}, []
+    for s in p.series:
+        if result is None:
+            r = failed_residual(len(s.times))
+        else:
+            xyz, R = sample_track(result.times, result.tracks[s.object], s.times)
+            r = pose_residual(s.xyz, s.R, xyz, R)
+        residuals[s.object] = r
+        parts.append(normalised(s, r))
+    f_res, f_norm = None, np.zeros(0)
+    if p.force is not None:
+        f_res = (np.full_like(p.force.force, FAILED_FORCE) if result is None
+                 else force_residual(p.force, result.times, result.robot_force))
+        f_norm = force_normalised(p.force, f_res)
+        parts.append(f_norm)
+    keep = want_tracks and result is not None
+    return Run(p.name, residuals, np.concatenate(parts), outcome.failure,
+               result.times if keep else None, dict(result.tracks) if keep else None,
+               result.contact_log if result is not None else (), outcome.wall_time, f_res, float(f_norm @ f_norm),
+               int(f_norm.size))
+
+
+class Runner:
+    """Runs models on prepared trials through an executor; counts simulations and failures."""
+
+    def __init__(self, prepared: Sequence[Prepared], odb: ObjectDatabase, executor: Executor, *,
+                 sample_rate: float = SAMPLE_RATE):
+        self.prepared = list(prepared)
+        self.odb, self.executor, self.sample_rate = odb, executor, sample_rate
+        self.simulations = 0
+        self.failures: list[tuple[str, str]] = []  # (trial, message) of every failed replay
+        self.wall = 0.0
+
+    def index(self, name: str) -> int:
+        for i, p in enumerate(self.prepared):
+            if p.name == name:
+                return i
+        raise DiagnosisError(f"no trial named {name!r}")
+
+    def job(self, model: Model, index: int, contacts: bool = False) -> Job:
+        p = self.prepared[index]
+        options = SimOptions(sample_rate=self.sample_rate, end=p.end, contacts=contacts,
+                             robot_force=p.force is not None)
+        return Job(trial_rollout(p.trial, model, self.odb), options)
+
+    def run_many(self, models: Sequence[Model], indices: Sequence[int], *, tracks: bool = False,
+                 contacts: bool = False) -> list[list[Run]]:
+        """runs[m][k]: model m on trial indices[k], one batch on the executor."""
+        tasks = [(tuple(m), i) for m in models for i in indices]
+        outcomes = self.executor.run([self.job(m, i, contacts) for m, i in tasks])
+        self.simulations += len(tasks)
+        runs = []
+        for (_, i), outcome in zip(tasks, outcomes):
+            if outcome.failed:
+                self.failures.append((self.prepared[i].name, outcome.failure))
+            runs.append(run_of(self.prepared[i], outcome, tracks))
+        self.wall += sum(r.wall for r in runs)
+        k = len(indices)
+        return [runs[m * k:(m + 1) * k] for m in range(len(models))]
+
+    def run(self, model: Model, indices: Sequence[int], *, tracks: bool = False, contacts: bool = False) -> list[Run]:
+        return self.run_many([model], indices, tracks=tracks, contacts=contacts)[0]
+
+
+def default_workers() -> int:
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+def chi2_of(runs: Sequence[Run]) -> tuple[float, int]:
+    """Total chi^2 and number of normalised residual values over runs."""
+    return float(sum(r.chi2 for r in runs)), int(sum(r.normalised.size for r in runs))
+
+
+def vector_of(runs: Sequence[Run]) -> np.ndarray:
+    return np.concatenate([r.normalised for r in runs]) if runs else np.zeros(0)
+
+
+def all_finite(runs: Sequence[Run]) -> bool:
+    return all(r.failed is None for r in runs) and all(math.isfinite(r.chi2) for r in runs)

@@ -1,0 +1,613 @@
+"""Parameter kinds: how one value changes what is simulated. The one vocabulary of parameters: parameter files
+(`bridge fit --params`, `bridge infer --params`), the fits, the diagnosis' effects (each a bundle of kinds) and
+the scene files it writes all name these.
+
+A kind changes a `Rollout` (`bridge.rollout`): scene values written into a Drake context (no rebuild), the
+telemetry the robot follows, the world's poses (a tilted surface: a new scene), or extra geometry (a post, a
+sheet of another material: a new scene). Kinds whose values act together (a post's x and y, a tilt's two slopes
+and height) belong to a `Family`: their values are collected and the family builds one thing from all of them,
+the missing ones at their null values.
+
+Besides `apply`, a kind says what a search needs to start from the world model: its `null` value (what the
+world model has: no change), a physical `bounds`, a typical `step` (the unit of normalised coordinates and the
+finite-difference step) and, where it has one, the departure from null below which it makes no difference
+worth reporting (`negligible`).
+
+`KINDS` is the registry, spelled out at the bottom of this file; parameter files name kinds by `name`.
+"""
+from __future__ import annotations
+
+import math
+from typing import ClassVar, Mapping
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..errors import ParameterError
+from ..odb import ObjectDatabase
+from ..odb.geometry import z_range
+from ..rollout.rollout import Rollout
+from ..sim.extras import SurfacePatch, WeldedShape
+from ..sim.shapes import mass_properties
+from ..values import Pose
+from ..world import WorldState
+from .surfaces import footprint_half, movable_objects, supported_by, surface_top
+
+TYPE_PREFIX = "type:"
+G = 9.81
+OBSTACLE_RADIUS = 0.015  # m: the post `obstacle_x`/`obstacle_y` place
+PATCH_RAISED = 1.0e-6  # m: the sheet carries what stands on it (objects sink ~0.6 um), its edge is no step
+
+
+class Kind:
+    """One kind of parameter. Subclasses set `name`, `doc`, `unit`, `targets` and implement `apply` (or, in a
+    family, `component`) and `null`.
+
+    `targets` says what a setting's `target` names: "objects" (an object, or ``type:<type>`` for every object of
+    that type), "contacts" (objects or robot links ``<robot>/<link>``), "free objects" (objects that move),
+    "surfaces" (fixtures), "robot" (the robot's name) or "joints" (a telemetry joint). `minimum` is the smallest
+    valid value and `strict` whether it is excluded.
+    """
+
+    name: ClassVar[str]
+    doc: ClassVar[str] = ""
+    unit: ClassVar[str] = ""
+    targets: ClassVar[str] = "objects"
+    minimum: ClassVar[float | None] = None
+    strict: ClassVar[bool] = False
+    family: ClassVar["type[Family] | None"] = None
+
+    def select(self, target: str, world: WorldState, odb: ObjectDatabase) -> tuple[str, ...]:
+        """The names in `world` that `target` selects; () when it names nothing there."""
+        robot = world.robot.name if world.robot is not None else None
+        if self.targets == "robot":
+            return (target,) if target == robot else ()
+        if self.targets == "joints":
+            return (target,) if world.robot is not None and target in odb.get(world.robot.type).robot.joints else ()
+        if self.targets == "contacts" and robot is not None and target.startswith(robot + "/"):
+            return (target,)
+        if target.startswith(TYPE_PREFIX):
+            wanted = target[len(TYPE_PREFIX):]
+            names = tuple(n for n, o in world.objects.items() if odb.get(o.type).is_a(wanted))
+        else:
+            names = (target,) if target in world.objects else ()
+        if self.targets == "free objects":
+            names = tuple(n for n in names if not odb.get(world.objects[n].type).fixed)
+        if self.targets == "surfaces":
+            names = tuple(n for n in names if odb.get(world.objects[n].type).fixed)
+        return names
+
+    def valid_targets(self, worlds, odb: ObjectDatabase) -> str:
+        """What a target of this kind could name in `worlds`, for error messages."""
+        robots = sorted({w.robot.name for w in worlds if w.robot is not None})
+        if self.targets == "robot":
+            return f"{self.name} targets the robot: {', '.join(robots) or 'none in the recordings'}"
+        if self.targets == "joints":
+            joints = sorted({j for w in worlds if w.robot is not None for j in odb.get(w.robot.type).robot.joints})
+            return f"{self.name} targets a joint: {', '.join(joints) or 'none in the recordings'}"
+        fixed = {"free objects": False, "surfaces": True}.get(self.targets)
+        objects = sorted({n for w in worlds for n, o in w.objects.items()
+                          if fixed is None or odb.get(o.type).fixed == fixed})
+        types = sorted({o.type for w in worlds for o in w.objects.values()})
+        text = f"objects: {', '.join(objects)}; or type:<type> with a type among {', '.join(types)}"
+        if self.targets == "contacts" and robots:
+            text += f"; or a robot link <robot>/<link> of {', '.join(robots)}"
+        return text
+
+    def check_value(self, value: float) -> str | None:
+        """Why `value` is not valid for this kind, or None."""
+        if self.minimum is not None and (value < self.minimum or (self.strict and value == self.minimum)):
+            return f"{self.name} must be {'>' if self.strict else '>='} {self.minimum:g}, got {value:g}"
+        return None
+
+    def apply(self, value: float, names: tuple[str, ...], rollout: Rollout, odb: ObjectDatabase) -> Rollout:
+        raise NotImplementedError
+
+    # --- where a search starts ----------------------------------------------------------------------------
+    def null(self, world: WorldState, odb: ObjectDatabase, target: str) -> float | None:
+        """The world model's value (None when the world model does not say, e.g. a robot link's friction)."""
+        raise NotImplementedError
+
+    def bounds(self, world: WorldState, odb: ObjectDatabase, target: str) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def step(self, world: WorldState, odb: ObjectDatabase, target: str) -> float:
+        raise NotImplementedError
+
+    def negligible(self, world: WorldState, odb: ObjectDatabase, target: str) -> float | None:
+        return None
+
+    def __repr__(self) -> str:
+        return f"<kind {self.name}>"
+
+
+def _type_name(world: WorldState, odb: ObjectDatabase, target: str) -> str:
+    if target.startswith(TYPE_PREFIX):
+        return target[len(TYPE_PREFIX):]
+    if target not in world.objects:
+        raise ParameterError(f"no object {target!r} in world {world.name!r}; objects: {', '.join(world.objects)}")
+    return world.objects[target].type
+
+
+# --- scene values: contact -------------------------------------------------------------------------------------
+class _ObjectField(Kind):
+    """Sets one `ObjectValues` field of every selected object (or robot link)."""
+
+    field_name: ClassVar[str]
+
+    def apply(self, value, names, rollout, odb):
+        values = rollout.values
+        for name in names:
+            values = values.with_object(name, **{self.field_name: float(value)})
+        return rollout.with_values(values)
+
+
+class Friction(_ObjectField):
+    name, field_name, targets, minimum = "friction", "friction", "contacts", 0.0
+    doc = "Coulomb friction (static; also dynamic unless dynamic_friction is set); Drake combines two surfaces' values"
+
+    def null(self, world, odb, target):
+        if world.robot is not None and target.startswith(world.robot.name + "/"):
+            return None
+        return odb.get(_type_name(world, odb, target)).physics.friction
+
+    def bounds(self, world, odb, target):
+        return 0.02, max(1.5, 3 * (self.null(world, odb, target) or 0.5))
+
+    def step(self, world, odb, target):
+        return 0.3 * (self.null(world, odb, target) or 0.5)
+
+
+class DynamicFriction(Friction):
+    name, field_name = "dynamic_friction", "dynamic_friction"
+    doc = "dynamic Coulomb friction (kept <= the static one)"
+
+    def null(self, world, odb, target):
+        if world.robot is not None and target.startswith(world.robot.name + "/"):
+            return None
+        return odb.get(_type_name(world, odb, target)).physics.mu_dynamic
+
+
+class Dissipation(_ObjectField):
+    name, field_name, unit, targets, minimum = "dissipation", "dissipation", "s/m", "contacts", 0.0
+    doc = "Hunt-Crossley dissipation of the contact"
+
+    def null(self, world, odb, target):
+        if world.robot is not None and target.startswith(world.robot.name + "/"):
+            return None
+        return odb.get(_type_name(world, odb, target)).physics.dissipation
+
+    def bounds(self, world, odb, target):
+        return 0.0, 10.0 * max(self.null(world, odb, target) or 1.0, 0.1)
+
+    def step(self, world, odb, target):
+        return 0.3 * max(self.null(world, odb, target) or 1.0, 0.1)
+
+
+class HydroelasticModulus(_ObjectField):
+    name, field_name, unit, minimum, strict = "hydroelastic_modulus", "hydroelastic_modulus", "Pa", 0.0, True
+    doc = "hydroelastic modulus of a compliant object (contact stiffness)"
+
+    def null(self, world, odb, target):
+        return odb.get(_type_name(world, odb, target)).physics.hydroelastic_modulus
+
+    def bounds(self, world, odb, target):
+        e = self.null(world, odb, target) or 1e7
+        return 0.01 * e, 100.0 * e
+
+    def step(self, world, odb, target):
+        return 0.5 * (self.null(world, odb, target) or 1e7)
+
+
+# --- scene values: mass --------------------------------------------------------------------------------------
+class Mass(_ObjectField):
+    name, field_name, unit, targets, minimum, strict = "mass", "mass", "kg", "free objects", 0.0, True
+    doc = "mass of a free object (its rotational inertia follows as mass_spread says: by default scaled with it)"
+
+    def null(self, world, odb, target):
+        return float(mass_properties(odb, _type_name(world, odb, target)).mass)
+
+    def bounds(self, world, odb, target):
+        m = self.null(world, odb, target)
+        return 0.2 * m, 5.0 * m
+
+    def step(self, world, odb, target):
+        return 0.3 * self.null(world, odb, target)
+
+    def negligible(self, world, odb, target):
+        return 0.05 * self.null(world, odb, target)
+
+
+class MassSpread(_ObjectField):
+    name, field_name, targets, minimum = "mass_spread", "spread", "free objects", 0.0
+    doc = ("where a changed mass sits: 1 spread like the object's own (uniform density: the rotational inertia "
+           "scales with the mass), 0 at the centre of mass (a compact weight inside: the inertia stays)")
+
+    def null(self, world, odb, target):
+        return 1.0
+
+    def bounds(self, world, odb, target):
+        return 0.0, 1.5
+
+    def step(self, world, odb, target):
+        return 0.5
+
+
+class _ComComponent(Kind):
+    """One coordinate of the centre of mass in the object's frame; the others stay as they are."""
+
+    axis: ClassVar[int]
+    unit, targets = "m", "free objects"
+
+    def apply(self, value, names, rollout, odb):
+        values = rollout.values
+        for name in names:
+            current = values.objects[name].com if name in values.objects else None
+            com = list(current if current is not None else
+                       (float(v) for v in mass_properties(odb, rollout.world.objects[name].type).com))
+            com[self.axis] = float(value)
+            values = values.with_object(name, com=tuple(com))
+        return rollout.with_values(values)
+
+    def null(self, world, odb, target):
+        return float(mass_properties(odb, _type_name(world, odb, target)).com[self.axis])
+
+    def _half(self, world, odb, target) -> float:
+        return float(footprint_half(world, odb, target)[self.axis]) if target in world.objects else 0.05
+
+    def bounds(self, world, odb, target):
+        c, h = self.null(world, odb, target), self._half(world, odb, target)
+        return c - 0.6 * h, c + 0.6 * h
+
+    def step(self, world, odb, target):
+        return 0.1 * self._half(world, odb, target)
+
+    def negligible(self, world, odb, target):
+        return 0.001
+
+
+class ComX(_ComComponent):
+    name, axis, doc = "com_x", 0, "centre of mass x in the object's frame"
+
+
+class ComY(_ComComponent):
+    name, axis, doc = "com_y", 1, "centre of mass y in the object's frame"
+
+
+class ComZ(_ComComponent):
+    name, axis, doc = "com_z", 2, "centre of mass z in the object's frame"
+
+
+class _ForceComponent(Kind):
+    """A constant external force on a free object (world frame, at its centre of mass), one axis."""
+
+    axis: ClassVar[int]
+    unit, targets = "N", "free objects"
+
+    def apply(self, value, names, rollout, odb):
+        values = rollout.values
+        for name in names:
+            f = list(values.external_forces.get(name, (0.0, 0.0, 0.0)))
+            f[self.axis] = float(value)
+            values = values.with_force(name, tuple(f))
+        return rollout.with_values(values)
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def _weight(self, world, odb, target) -> float:
+        return float(mass_properties(odb, _type_name(world, odb, target)).mass) * G
+
+    def bounds(self, world, odb, target):
+        w = self._weight(world, odb, target)
+        return -w, w
+
+    def step(self, world, odb, target):
+        return 0.05 * self._weight(world, odb, target)
+
+
+class ForceX(_ForceComponent):
+    name, axis, doc = "force_x", 0, "constant external force along world x"
+
+
+class ForceY(_ForceComponent):
+    name, axis, doc = "force_y", 1, "constant external force along world y"
+
+
+class ForceZ(_ForceComponent):
+    name, axis, doc = "force_z", 2, "constant external force along world z"
+
+
+# --- telemetry ----------------------------------------------------------------------------------------------
+class Latency(Kind):
+    name, unit, targets = "latency", "s", "robot"
+    doc = "the robot moved this much later than its telemetry says (Telemetry.shifted)"
+
+    def apply(self, value, names, rollout, odb):
+        return rollout.with_telemetry(rollout.telemetry.shifted(float(value))) if value else rollout
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return -0.3, 0.3
+
+    def step(self, world, odb, target):
+        return 0.03
+
+    def negligible(self, world, odb, target):
+        return 0.005
+
+
+class JointOffset(Kind):
+    name, targets = "joint_offset", "joints"
+    doc = "a constant offset added to one joint's telemetry (calibration; m or rad)"
+
+    def apply(self, value, names, rollout, odb):
+        offsets = {n: float(value) for n in names if n in rollout.telemetry.joint_names and value}
+        return rollout.with_telemetry(rollout.telemetry.with_offsets(offsets)) if offsets else rollout
+
+    def _prismatic(self, world, odb, target) -> bool:
+        return odb.get(world.robot.type).robot.joint_type.get(target) == "prismatic"
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return (-0.03, 0.03) if self._prismatic(world, odb, target) else (-0.2, 0.2)
+
+    def step(self, world, odb, target):
+        return 0.002 if self._prismatic(world, odb, target) else 0.01
+
+    def negligible(self, world, odb, target):
+        return 0.0005 if self._prismatic(world, odb, target) else 0.002
+
+
+# --- families: values that act together ------------------------------------------------------------------------
+class Family:
+    """Kinds whose values build one thing together. `members` maps each component to its kind's name."""
+
+    name: ClassVar[str]
+    members: ClassVar[Mapping[str, str]]
+
+    @classmethod
+    def realise(cls, values: Mapping[str, float], target: str, rollout: Rollout, odb: ObjectDatabase) -> Rollout:
+        raise NotImplementedError
+
+
+class _Member(Kind):
+    """A component of a family: `apply` is never called alone (see `bridge.params.model.apply_model`)."""
+
+    component: ClassVar[str]
+    targets = "surfaces"
+
+    def apply(self, value, names, rollout, odb):
+        return self.family.realise({self.component: float(value)}, names[0], rollout, odb)
+
+
+def tilted_poses(world: WorldState, odb: ObjectDatabase, surface: str, slope_x: float, slope_y: float,
+                 dz: float = 0.0) -> dict[str, Pose]:
+    """New poses of the surface and the free objects on it: tilted about the top above its centre so that it
+    slopes downhill along (slope_x, slope_y), raised by dz; the objects keep their x, y on the tilted top."""
+    theta = math.hypot(slope_x, slope_y)
+    if theta == 0.0 and dz == 0.0:
+        return {}
+    R = Rotation.from_rotvec(np.array([-slope_y, slope_x, 0.0])) if theta > 0 else Rotation.identity()
+    s = world.objects[surface]
+    pivot = np.array([s.pose.xyz[0], s.pose.xyz[1], surface_top(world, odb, surface)])
+    out = {}
+    for name in (surface, *supported_by(world, odb, surface)):
+        pose = world.objects[name].pose
+        xyz = R.apply(np.asarray(pose.xyz) - pivot) + pivot + np.array([0.0, 0.0, dz])
+        if name != surface:  # stay at the same x, y: slide up or down the slope to it
+            n = R.apply([0.0, 0.0, 1.0])
+            shift = np.asarray(pose.xyz[:2]) - xyz[:2]
+            xyz = np.array([pose.xyz[0], pose.xyz[1], xyz[2] - (n[0] * shift[0] + n[1] * shift[1]) / n[2]])
+        Rm = R.as_matrix() @ pose.rotation()
+        out[name] = Pose.from_matrix(np.vstack([np.column_stack([Rm, xyz]), [0.0, 0.0, 0.0, 1.0]]))
+    return out
+
+
+class SurfaceTilt(Family):
+    """The support fixture and what stands on it rotated (and raised): a new scene per value."""
+
+    name = "surface_tilt"
+    members = {"slope_x": "surface_slope_x", "slope_y": "surface_slope_y", "dz": "surface_dz"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        poses = tilted_poses(rollout.world, odb, target, values.get("slope_x", 0.0), values.get("slope_y", 0.0),
+                             values.get("dz", 0.0))
+        return rollout.with_world(rollout.world.with_poses(poses)) if poses else rollout
+
+
+class _Slope(_Member):
+    family, unit = SurfaceTilt, "rad"
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return -0.15, 0.15
+
+    def step(self, world, odb, target):
+        return 0.01
+
+    def negligible(self, world, odb, target):
+        return 0.0017
+
+
+class SurfaceSlopeX(_Slope):
+    name, component = "surface_slope_x", "slope_x"
+    doc = "surface tilt: downhill slope along world x (the fixture and what stands on it rotated)"
+
+
+class SurfaceSlopeY(_Slope):
+    name, component = "surface_slope_y", "slope_y"
+    doc = "surface tilt: downhill slope along world y (the fixture and what stands on it rotated)"
+
+
+class SurfaceDz(_Member):
+    name, component, family, unit = "surface_dz", "dz", SurfaceTilt, "m"
+    doc = "surface tilt: height change of the top above the fixture's centre"
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return -0.01, 0.01
+
+    def step(self, world, odb, target):
+        return 0.001
+
+
+def _extent(world: WorldState, odb: ObjectDatabase, target: str) -> tuple[float, float, float, float]:
+    """(cx, cy, hx, hy) of a fixture's top."""
+    hx, hy, _ = footprint_half(world, odb, target)
+    cx, cy = world.objects[target].pose.xyz[:2]
+    return float(cx), float(cy), float(hx), float(hy)
+
+
+class Obstacle(Family):
+    """A welded upright post of radius `OBSTACLE_RADIUS` at (x, y) on the surface, taller than anything on it."""
+
+    name = "hidden_obstacle"
+    members = {"x": "obstacle_x", "y": "obstacle_y"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        world = rollout.world
+        top = surface_top(world, odb, target)
+        cx, cy, hx, hy = _extent(world, odb, target)
+        x, y = values.get("x", cx + hx), values.get("y", cy + hy)
+        tallest = max([z_range(odb.get(world.objects[n].type).geometry, world.objects[n].pose)[1]
+                       for n in movable_objects(world, odb)] + [top + 0.05])
+        height = tallest - top + 0.05
+        return rollout.with_extras(WeldedShape("hidden_obstacle", "cylinder", (OBSTACLE_RADIUS, height),
+                                               (x, y, top + height / 2), friction=0.5))
+
+
+class _ObstacleAxis(_Member):
+    family, unit, axis = Obstacle, "m", 0
+
+    def null(self, world, odb, target):
+        cx, cy, hx, hy = _extent(world, odb, target)
+        return (cx + hx, cy + hy)[self.axis]
+
+    def bounds(self, world, odb, target):
+        cx, cy, hx, hy = _extent(world, odb, target)
+        c, h = (cx, hx) if self.axis == 0 else (cy, hy)
+        return c - h, c + h
+
+    def step(self, world, odb, target):
+        return 0.005
+
+
+class ObstacleX(_ObstacleAxis):
+    name, component, axis, doc = "obstacle_x", "x", 0, "a post the world model lacks: its centre, world x"
+
+
+class ObstacleY(_ObstacleAxis):
+    name, component, axis, doc = "obstacle_y", "y", 1, "a post the world model lacks: its centre, world y"
+
+
+class Patch(Family):
+    """A micrometre-thin sheet over an axis-aligned square of the surface with its own friction coefficient: an
+    object over it rests on the sheet, one straddling its edge feels both coefficients side by side."""
+
+    name = "friction_patch"
+    members = {"cx": "patch_cx", "cy": "patch_cy", "half": "patch_half", "mu": "patch_mu"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        world = rollout.world
+        cx, cy, _, _ = _extent(world, odb, target)
+        x, y = values.get("cx", cx), values.get("cy", cy)
+        h = values.get("half", 0.05)
+        mu = values.get("mu", odb.get(world.objects[target].type).physics.friction)
+        sheet = SurfacePatch("friction_patch", (x - h, x + h, y - h, y + h), surface_top(world, odb, target), mu,
+                             raised=PATCH_RAISED)
+        return rollout.with_extras(sheet)
+
+
+class _PatchCentre(_Member):
+    family, unit, axis = Patch, "m", 0
+
+    def null(self, world, odb, target):
+        return _extent(world, odb, target)[self.axis]
+
+    def bounds(self, world, odb, target):
+        cx, cy, hx, hy = _extent(world, odb, target)
+        c, h = (cx, hx) if self.axis == 0 else (cy, hy)
+        return c - h, c + h
+
+    def step(self, world, odb, target):
+        return 0.01
+
+
+class PatchCx(_PatchCentre):
+    name, component, axis, doc = "patch_cx", "cx", 0, "a region of other friction: its centre, world x"
+
+
+class PatchCy(_PatchCentre):
+    name, component, axis, doc = "patch_cy", "cy", 1, "a region of other friction: its centre, world y"
+
+
+class PatchHalf(_Member):
+    name, component, family, unit, minimum, strict = "patch_half", "half", Patch, "m", 0.0, True
+    doc = "a region of other friction: half the side of its square"
+
+    def null(self, world, odb, target):
+        return 0.05
+
+    def bounds(self, world, odb, target):
+        _, _, hx, hy = _extent(world, odb, target)
+        return 0.005, max(hx, hy)
+
+    def step(self, world, odb, target):
+        return 0.01
+
+
+class PatchMu(_Member):
+    name, component, family, minimum = "patch_mu", "mu", Patch, 0.0
+    doc = "a region of other friction: its coefficient (like the surface's own, combined with the object's)"
+
+    def null(self, world, odb, target):
+        return odb.get(world.objects[target].type).physics.friction
+
+    def bounds(self, world, odb, target):
+        return 0.003, 3.0
+
+    def step(self, world, odb, target):
+        return 0.3 * self.null(world, odb, target)
+
+
+# --- the registry -------------------------------------------------------------------------------------------
+KINDS: dict[str, Kind] = {k.name: k for k in (
+    Friction(), DynamicFriction(), Dissipation(), HydroelasticModulus(),
+    Mass(), MassSpread(), ComX(), ComY(), ComZ(), ForceX(), ForceY(), ForceZ(),
+    Latency(), JointOffset(),
+    SurfaceSlopeX(), SurfaceSlopeY(), SurfaceDz(),
+    ObstacleX(), ObstacleY(),
+    PatchCx(), PatchCy(), PatchHalf(), PatchMu(),
+)}
+
+
+def kind_named(name: str) -> Kind:
+    try:
+        return KINDS[name]
+    except (KeyError, TypeError):
+        raise ParameterError(f"unknown parameter kind {name!r}; kinds: {', '.join(KINDS)}") from None
+
+
+def register_kind(kind: Kind) -> Kind:
+    """Add a kind of your own to `KINDS` (call it where your code starts, before reading files that name it)."""
+    if not isinstance(kind, Kind) or not getattr(kind, "name", None):
+        raise ParameterError(f"register_kind needs a Kind instance with a name, got {kind!r}")
+    if kind.name in KINDS and type(KINDS[kind.name]) is not type(kind):
+        raise ParameterError(f"parameter kind {kind.name!r} is registered already ({type(KINDS[kind.name]).__name__})")
+    KINDS[kind.name] = kind
+    return kind
+
+
+__all__ = ["Family", "KINDS", "Kind", "kind_named", "register_kind", "tilted_poses"]

@@ -1,0 +1,70 @@
+"""A model: parameter values (`Setting`s, in order) and how they turn a rollout into the one simulated.
+
+A fitted parameter file, a diagnosed scene file, a diagnosis' candidate and a proof's concealed truth are all
+models. `apply_model` applies the settings in order; the members of a family (a post's x and y, a tilt's
+slopes) are collected and built once, after the others, with the missing members at their null values.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+from ..errors import ParameterError
+from ..odb import ObjectDatabase
+from ..rollout.rollout import Rollout
+from ..rollout.trials import Trial
+from .kinds import Family, kind_named
+
+
+@dataclass(frozen=True, order=True)
+class Setting:
+    """One value of one kind on one target. `effect` labels the effect it belongs to (reports, scene files);
+    it takes no part in equality, so the same values are the same model whatever they were called."""
+
+    kind: str
+    target: str
+    value: float
+    effect: str = field(default="", compare=False)
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind}[{self.target}]"
+
+
+Model = tuple[Setting, ...]
+
+
+def apply_model(model: Sequence[Setting], rollout: Rollout, odb: ObjectDatabase, *, strict: bool = True,
+                source: str | None = None) -> Rollout:
+    """`rollout` with every setting applied. A setting whose target names nothing in the rollout's world is an
+    error (`strict`) or skipped (a parameter file written for several recordings, each with its own objects)."""
+    world = rollout.world
+    families: dict[tuple[type[Family], str], dict[str, float]] = {}
+    for s in model:
+        kind = kind_named(s.kind)
+        names = kind.select(s.target, world, odb)
+        if not names:
+            if strict:
+                raise ParameterError(f"{s.name}: {s.target!r} names nothing in world {world.name!r}; "
+                                  f"{kind.valid_targets([world], odb)}", source=source)
+            continue
+        if kind.family is not None:
+            for name in names:
+                families.setdefault((kind.family, name), {})[kind.component] = float(s.value)
+        else:
+            rollout = kind.apply(float(s.value), names, rollout, odb)
+    for (family, target), values in families.items():
+        rollout = family.realise(_with_nulls(family, values, world, odb, target), target, rollout, odb)
+    return rollout
+
+
+def _with_nulls(family: type[Family], values: dict[str, float], world, odb, target) -> dict[str, float]:
+    return {component: values[component] if component in values else kind_named(kind).null(world, odb, target)
+            for component, kind in family.members.items()}
+
+
+def trial_rollout(trial: Trial, model: Sequence[Setting], odb: ObjectDatabase, *, strict: bool = True) -> Rollout:
+    """The rollout of a trial under `model`: the recording's world and telemetry, then the trial's base model
+    (a diagnosed scene file), then `model`."""
+    rollout = Rollout(trial.world, trial.telemetry, name=trial.name)
+    return apply_model(tuple(trial.base) + tuple(model), rollout, odb, strict=strict, source=str(trial.source))

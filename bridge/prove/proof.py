@@ -1,0 +1,268 @@
+"""The proof: recordings with each effect concealed (by a physical mechanism, `generate.py`), diagnosed blind.
+
+For each case the generator writes recording folders (world.yaml, telemetry.csv, observed.csv) and, beside them,
+truth.json; the diagnosis reads only the recordings. The result is a confusion matrix (true effect x verdict),
+parameter recovery against the truth (with the tolerances below) and the error before and after on held-out
+recordings.
+
+Sizes: `small` (CI: every planar effect once at a large magnitude, clean data, one tabletop case) and `full`
+(benchmarks/prove_benchmark.py: every planar effect at three magnitudes with two seeds, tabletop com_offset and
+hidden_obstacle at three magnitudes, and clean cases).
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from ..diagnosis.effects import EFFECTS, Recovery, Truth, get_effect
+from ..diagnosis.identify import Options
+from ..diagnosis.pipeline import DiagnosisRun, run_diagnosis
+from ..diagnosis.runs import default_workers
+from ..errors import DiagnosisError
+from ..files import write_atomic
+from ..odb import ObjectDatabase
+from ..rollout.executors import Executor, make_executor
+from .generate import generate_case
+from .scenes import MAGNITUDES, PLANAR_EFFECTS, TABLETOP_EFFECTS, Case
+
+SIZES = ("small", "full")
+
+
+@dataclass(frozen=True)
+class ProofSettings:
+    recordings: int
+    held_out: int
+    options: Options
+
+
+SETTINGS = {
+    "small": ProofSettings(4, 1, Options(max_full_fits=4, max_iterations=4)),
+    "full": ProofSettings(8, 2, Options(max_full_fits=4, max_iterations=4)),
+}
+
+
+def proof_cases(size: str, seed: int = 0) -> list[Case]:
+    if size == "small":
+        cases = [Case("planar", e, "large", seed + 1) for e in PLANAR_EFFECTS]
+        cases.append(Case("planar", "none", "medium", seed + 1))
+        cases.append(Case("tabletop", "com_offset", "large", seed + 1))
+        return cases
+    if size == "full":  # seed by seed, so that a run cut short still covers every effect and magnitude
+        cases = []
+        for s in (1, 2):
+            cases += [Case("planar", e, m, seed + s) for m in MAGNITUDES for e in PLANAR_EFFECTS]
+            cases += [Case("planar", "none", "medium", seed + k) for k in (3 * s - 2, 3 * s - 1, 3 * s)]
+            if s == 1:
+                cases += [Case("tabletop", e, m, seed + 1) for e in TABLETOP_EFFECTS for m in MAGNITUDES]
+            cases.append(Case("tabletop", "none", "medium", seed + s))
+        return cases
+    raise DiagnosisError(f"unknown proof size {size!r}; sizes: {', '.join(SIZES)}")
+
+
+# --- checking a verdict against the truth ------------------------------------------------------------------
+def recovery(truth: Truth, run: DiagnosisRun, odb: ObjectDatabase, world) -> Recovery:
+    """Did the diagnosis find the right parameters? The effect's own check (`Effect.recovered`), its tolerance
+    stated in the text."""
+    w = run.identification.winner
+    return get_effect(truth.effect).recovered(truth, w.params, w.model, world, odb)
+
+
+def target_ok(truth: Truth, run: DiagnosisRun, world, odb: ObjectDatabase) -> bool:
+    """The verdict is the concealed effect, on the concealed target (`Effect.target_matches`)."""
+    w = run.identification.winner
+    if truth.effect == "none" or w.effect != truth.effect:
+        return w.effect == truth.effect
+    return get_effect(truth.effect).target_matches(truth.target, w.target, world, odb)
+
+
+# --- running ------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CaseResult:
+    case: Case
+    truth: Truth
+    verdict: str
+    target: str
+    target_ok: bool
+    recovery: Recovery
+    params: dict[str, float]
+    runner_up: str | None
+    margin: float | None
+    held_out_before: float | None  # the paper's pose error e on the held-out recordings
+    held_out_after: float | None
+    seconds: float
+    simulations: int
+    held_out_excess_reduction: float | None = None  # of the residual above the noise floor (report.excess_reduction)
+
+    @property
+    def right(self) -> bool:
+        return self.verdict == self.truth.effect
+
+    @property
+    def held_out_reduction(self) -> float | None:
+        if self.held_out_before is None or self.held_out_after is None or self.held_out_before <= 0:
+            return None
+        return 1.0 - self.held_out_after / self.held_out_before
+
+    def to_json(self) -> dict[str, Any]:
+        return {"case": self.case.name, "scene": self.case.scene, "effect": self.truth.effect,
+                "magnitude": self.case.magnitude, "seed": self.case.seed, "truth": self.truth.to_json(),
+                "verdict": self.verdict, "target": self.target, "target_ok": self.target_ok,
+                "recovered": self.recovery.ok, "recovery": self.recovery.text, "params": self.params,
+                "runner_up": self.runner_up, "margin": self.margin,
+                "held_out_before": self.held_out_before, "held_out_after": self.held_out_after,
+                "held_out_reduction": self.held_out_reduction,
+                "held_out_excess_reduction": self.held_out_excess_reduction, "seconds": round(self.seconds, 1),
+                "simulations": self.simulations}
+
+
+@dataclass(frozen=True)
+class ProofResult:
+    size: str
+    results: tuple[CaseResult, ...]
+    seconds: float
+
+    @property
+    def rows(self) -> list[dict[str, Any]]:
+        return [r.to_json() for r in self.results]
+
+    def confusion(self) -> tuple[list[str], dict[str, dict[str, int]]]:
+        return confusion(self.rows)
+
+    def summary(self) -> dict[str, Any]:
+        return summarise(self.rows)
+
+    def text(self) -> str:
+        return proof_text(self.rows)
+
+    def to_json(self) -> dict[str, Any]:
+        return proof_json(self.size, self.rows, self.seconds)
+
+
+# --- figures from case rows (CaseResult.to_json(); also what the benchmark's progress.json holds) ----------------
+def confusion(rows: Sequence[dict[str, Any]]) -> tuple[list[str], dict[str, dict[str, int]]]:
+    labels = [e for e in EFFECTS if any(r["effect"] == e or r["verdict"] == e for r in rows)]
+    matrix = {t: {v: 0 for v in labels} for t in labels}
+    for r in rows:
+        matrix[r["effect"]][r["verdict"]] += 1
+    return labels, matrix
+
+
+def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    concealed = [r for r in rows if r["effect"] != "none"]
+    clean = [r for r in rows if r["effect"] == "none"]
+    right = [r for r in concealed if r["verdict"] == r["effect"]]
+    reductions = [r["held_out_excess_reduction"] for r in right if r.get("held_out_excess_reduction") is not None]
+    e_reductions = [r["held_out_reduction"] for r in right if r.get("held_out_reduction") is not None]
+    seconds = [r["seconds"] for r in rows]
+    return {
+        "cases": len(rows),
+        "concealed": len(concealed),
+        "verdict_right": _frac(len(right), len(concealed)),
+        "target_right": _frac(sum(r["target_ok"] for r in concealed), len(concealed)),
+        "params_recovered_when_right": _frac(sum(r["recovered"] for r in right), len(right)),
+        "none_on_clean": _frac(sum(r["verdict"] == "none" for r in clean), len(clean)),
+        "held_out_excess_reduction_when_right_median": float(np.median(reductions)) if reductions else None,
+        "held_out_excess_reduction_when_right_min": float(np.min(reductions)) if reductions else None,
+        "held_out_excess_reduction_at_least_70pct": _frac(sum(x >= 0.7 for x in reductions), len(reductions)),
+        "held_out_e_reduction_when_right_median": float(np.median(e_reductions)) if e_reductions else None,
+        "seconds_per_case_median": float(np.median(seconds)) if seconds else None,
+        "seconds_per_case_max": float(np.max(seconds)) if seconds else None,
+    }
+
+
+def proof_text(rows: Sequence[dict[str, Any]]) -> str:
+    labels, matrix = confusion(rows)
+    short = {e: e[:9] for e in labels}
+    lines = ["confusion matrix (rows: concealed effect, columns: verdict)",
+             f"{'':16s}" + "".join(f"{short[v]:>10s}" for v in labels)]
+    for t in labels:
+        if sum(matrix[t].values()) == 0:
+            continue
+        lines.append(f"{t:16s}" + "".join(f"{matrix[t][v]:10d}" for v in labels))
+    lines.append("")
+    lines.append(f"{'case':36s} {'verdict':16s} {'target':7s} {'params':7s} {'held-out e (m)':>21s} "
+                 f"{'excess':>7s} {'s':>6s}  recovery")
+    for r in rows:
+        before, after = r.get("held_out_before"), r.get("held_out_after")
+        ho = f"{before:.5f}->{after:.5f}" if before is not None and after is not None else "-"
+        x = r.get("held_out_excess_reduction")
+        ex = f"{-100 * x:+.0f}%" if x is not None else "-"
+        lines.append(f"{r['case']:36s} {r['verdict']:16s} {str(r['target_ok']):7s} {str(r['recovered']):7s} "
+                     f"{ho:>21s} {ex:>7s} {r['seconds']:6.1f}  {r['recovery']}")
+    lines.append("")
+    for k, v in summarise(rows).items():
+        lines.append(f"{k}: {v if not isinstance(v, float) else round(v, 3)}")
+    return "\n".join(lines)
+
+
+def proof_json(size: str, rows: Sequence[dict[str, Any]], seconds: float) -> dict[str, Any]:
+    labels, matrix = confusion(rows)
+    return {"size": size, "seconds": round(seconds, 1), "summary": summarise(rows),
+            "confusion": {"labels": labels, "matrix": matrix}, "cases": list(rows)}
+
+
+def _frac(a: int, b: int) -> float | None:
+    return round(a / b, 4) if b else None
+
+
+def run_case(case: Case, odb: ObjectDatabase, folder: Path, settings: ProofSettings, *, workers: int | None = None,
+             executor: Executor | None = None, log: Callable[[str], None] | None = None) -> CaseResult:
+    """Generate the case's recordings, diagnose them blind (from the folders), compare with the truth."""
+    from ..rollout.trials import load_trials
+
+    paths, truth = generate_case(case, odb, folder, settings.recordings)
+    started = time.perf_counter()
+    trials = load_trials(paths, odb)
+    (folder / "diagnosis").mkdir(parents=True, exist_ok=True)
+    with open(folder / "diagnosis" / "log.txt", "w", encoding="utf-8") as handle:
+        def say(message: str) -> None:
+            handle.write(message + "\n")
+            handle.flush()
+            if log:
+                log(message)
+
+        run = run_diagnosis(trials, odb, folder / "diagnosis", held_out=settings.held_out, workers=workers,
+                            executor=executor, options=settings.options, plots=False, log=say)
+    seconds = time.perf_counter() - started
+    ident = run.identification
+    world = trials[0].world
+    e = run.data["error"]
+    return CaseResult(case, truth, ident.verdict, ident.winner.target, target_ok(truth, run, world, odb),
+                      recovery(truth, run, odb, world) if ident.verdict == truth.effect else
+                      Recovery(False, None, "", f"verdict {ident.verdict}"),
+                      dict(ident.winner.params), ident.runner_up.effect if ident.runner_up else None,
+                      round(ident.margin, 2) if math.isfinite(ident.margin) else None,
+                      e.get("held_out_before", {}).get("e"), e.get("held_out_after", {}).get("e"), seconds,
+                      ident.simulations, e.get("held_out_excess_reduction"))
+
+
+def run_proof(out: str | Path, odb: ObjectDatabase, *, size: str = "small", cases: Sequence[Case] | None = None,
+              workers: int | None = None, log: Callable[[str], None] | None = None) -> ProofResult:
+    settings = SETTINGS[size] if size in SETTINGS else None
+    if settings is None:
+        raise DiagnosisError(f"unknown proof size {size!r}; sizes: {', '.join(SIZES)}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    cases = list(cases) if cases is not None else proof_cases(size)
+    started = time.perf_counter()
+    results = []
+    n = workers or default_workers()
+    with make_executor("serial" if n == 1 else "process", odb, workers=n) as executor:  # one pool for every case
+        for k, case in enumerate(cases):
+            result = run_case(case, odb, out / case.name, settings, executor=executor)
+            results.append(result)
+            if log:
+                log(f"[{k + 1}/{len(cases)}] {case.name}: verdict {result.verdict} (target ok {result.target_ok}, "
+                    f"params {result.recovery.text}), {result.seconds:.0f} s")
+            partial = ProofResult(size, tuple(results), time.perf_counter() - started)
+            write_atomic(out / "proof.json", json.dumps(partial.to_json(), indent=2) + "\n")
+    proof = ProofResult(size, tuple(results), time.perf_counter() - started)
+    write_atomic(out / "proof.json", json.dumps(proof.to_json(), indent=2) + "\n")
+    write_atomic(out / "proof.md", "# Proof: concealed effects diagnosed blind\n\n```\n" + proof.text() + "\n```\n")
+    return proof

@@ -1,0 +1,139 @@
+"""Where rollouts run: in this process, a process pool, or a dask cluster; one interface for fitting, diagnosis,
+the proof and sampling.
+
+Every backend is a `concurrent.futures.Executor`; a task is one `Job` (a rollout and what to record), so two
+workers share even a small batch. A task carries a reference to the object database (its root and dataset
+roots), never the database itself: each worker process loads it once (the process pool through its initializer,
+dask workers on their first task) and keeps its own Drake diagrams (`rollout.scene_for`). Results come back in
+submission order and each simulation is deterministic, so the backend and the number of workers never change a
+result. A failed simulation comes back as a failed `Outcome`; any other error (bad input) is raised in the
+caller with its message.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+from concurrent.futures import Executor as FuturesExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+from ..errors import BridgeError
+from ..odb import ObjectDatabase, load_object_database
+from .rollout import Job, Outcome, run_job
+
+EXECUTORS = ("process", "dask", "serial")
+
+
+@dataclass(frozen=True)
+class OdbRef:
+    """How a worker finds the object database: its root and the dataset roots (for dataset:// meshes)."""
+
+    root: str
+    datasets: tuple[tuple[str, str], ...] = ()
+
+    @classmethod
+    def of(cls, odb: ObjectDatabase) -> "OdbRef":
+        return cls(str(odb.root), tuple(sorted((k, str(v)) for k, v in odb.datasets.items())))
+
+
+_ODBS: dict[OdbRef, ObjectDatabase] = {}
+
+
+def init_worker(ref: OdbRef) -> None:
+    """Process-pool initializer: load the object database once per worker."""
+    worker_odb(ref)
+
+
+def worker_odb(ref: OdbRef) -> ObjectDatabase:
+    if ref not in _ODBS:
+        _ODBS[ref] = load_object_database(ref.root, datasets=dict(ref.datasets))
+    return _ODBS[ref]
+
+
+def run_task(job: Job, ref: OdbRef) -> Outcome:
+    """One job in a worker."""
+    return run_job(job, worker_odb(ref))
+
+
+class SerialExecutor(FuturesExecutor):
+    """Runs each task when it is submitted, in this process (tests, debugging, one core)."""
+
+    def submit(self, fn: Callable, /, *args: Any, **kwargs: Any) -> Future:
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # handed to the caller through the future, like the other executors
+            future.set_exception(exc)
+        return future
+
+
+class Executor:
+    """A `concurrent.futures.Executor` and the object database its tasks use. Use as a context manager."""
+
+    def __init__(self, kind: str, executor: FuturesExecutor, odb: ObjectDatabase, workers: int,
+                 closer: Callable[[], None]):
+        self.kind, self.executor, self.workers = kind, executor, workers
+        self.odb = odb
+        self.odb_ref = OdbRef.of(odb)
+        self._closer = closer
+        _ODBS.setdefault(self.odb_ref, odb)  # serial tasks use the caller's database
+
+    def run(self, jobs: Sequence[Job]) -> list[Outcome]:
+        """Simulate every job; outcomes in the order of `jobs`."""
+        futures = [self.executor.submit(run_task, job, self.odb_ref) for job in jobs]
+        return [f.result() for f in futures]
+
+    def close(self) -> None:
+        self._closer()
+
+    def __enter__(self) -> "Executor":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Executor({self.kind}, workers={self.workers})"
+
+
+def make_executor(kind: str = "process", odb: ObjectDatabase | None = None, *, workers: int | None = None,
+                  scheduler: str | None = None) -> Executor:
+    """`process` (ProcessPoolExecutor, spawned workers), `dask` (a local cluster of `workers` processes, or the
+    scheduler at `scheduler`) or `serial`. `workers` defaults to the number of CPUs."""
+    if odb is None:
+        odb = load_object_database()
+    if kind not in EXECUTORS:
+        raise BridgeError(f"unknown executor {kind!r}; valid: {', '.join(EXECUTORS)}")
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool) or workers < 1):
+        raise BridgeError(f"workers must be a whole number >= 1, got {workers!r}")
+    if scheduler is not None and kind != "dask":
+        raise BridgeError("a scheduler address needs the dask executor (--executor dask)")
+    n = workers or os.cpu_count() or 1
+    if kind == "serial":
+        return Executor("serial", SerialExecutor(), odb, 1, lambda: None)
+    if kind == "process":
+        pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=init_worker, initargs=(OdbRef.of(odb),))
+        return Executor(kind, pool, odb, n, lambda: pool.shutdown(wait=True, cancel_futures=True))
+    return _dask_executor(odb, n, scheduler)
+
+
+def _dask_executor(odb: ObjectDatabase, n: int, scheduler: str | None) -> Executor:
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise BridgeError("the dask executor needs dask.distributed: pip install 'bridge[distributed]'") from None
+    cluster = None
+    try:
+        if scheduler is not None:
+            client = Client(scheduler, timeout="20s")
+        else:
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+            client = Client(cluster)
+    except (OSError, TimeoutError, ValueError) as exc:
+        where = f"scheduler {scheduler}" if scheduler else "a local dask cluster"
+        raise BridgeError(f"cannot connect to {where}: {exc}") from None
+    workers = len(client.scheduler_info().get("workers", {})) or n
+    return Executor("dask", client.get_executor(pure=False), odb, workers,
+                    lambda: (client.close(), cluster.close() if cluster is not None else None))

@@ -1,0 +1,133 @@
+"""What one simulation runs (`Rollout`), the process's scene cache, and running a rollout in this process.
+
+Every replay in bridge goes through here: `bridge infer`, the demo, the viewer's scene, a fit's candidates, a
+diagnosis' models, the proof's generated recordings. A `Rollout` is a plain value (picklable, sent to worker
+processes as it is): the world before, the scene values written into a context, the telemetry the robot follows,
+extra geometry, context hooks and the simulator's settings. Parameter kinds (`bridge.params`) turn parameter
+values into a rollout; nothing else decides what is simulated.
+
+The scene cache is keyed on structure only: the objects and their types, where the fixtures stand, the robot and
+its base, the extras and the simulator's settings. Free objects' poses, scene values and telemetry go into a
+fresh context per replay, so recordings of one scene share one diagram however their objects start.
+"""
+from __future__ import annotations
+
+import time as wallclock
+from collections import OrderedDict
+from dataclasses import dataclass, field, replace
+from typing import Callable, Mapping
+
+from ..errors import SimulationFailure
+from ..odb import ObjectDatabase
+from ..recording.telemetry import Telemetry
+from ..sim.contacts import contacts_at_start
+from ..sim.scene import Scene, SceneValues, SimConfig, build_scene
+from ..sim.simulate import ReplayResult, SimOptions, simulate
+from ..values import Contact, Pose
+from ..world import WorldState
+
+SCENE_CACHE = 32  # diagrams kept per process (a tilted surface or a moved post is a new structure)
+
+
+@dataclass(frozen=True, eq=False)
+class Rollout:
+    """What is simulated. `name` says where it comes from (a trial, a recording) for messages."""
+
+    world: WorldState
+    telemetry: Telemetry | None
+    values: SceneValues = field(default_factory=SceneValues)
+    extras: tuple = ()
+    hooks: tuple = ()
+    config: SimConfig = field(default_factory=SimConfig)
+    name: str = ""
+
+    def with_world(self, world: WorldState) -> "Rollout":
+        return replace(self, world=world)
+
+    def with_values(self, values: SceneValues) -> "Rollout":
+        return replace(self, values=values)
+
+    def with_telemetry(self, telemetry: Telemetry) -> "Rollout":
+        return replace(self, telemetry=telemetry)
+
+    def with_extras(self, *extras) -> "Rollout":
+        return replace(self, extras=self.extras + tuple(extras))
+
+    def with_hooks(self, *hooks) -> "Rollout":
+        return replace(self, hooks=self.hooks + tuple(hooks))
+
+
+def structure(world: WorldState, odb: ObjectDatabase) -> tuple:
+    """What a diagram depends on: objects and their types, fixtures' poses, the robot and its base."""
+    objects = tuple(sorted((n, o.type, o.pose if odb.get(o.type).fixed else None) for n, o in world.objects.items()))
+    robot = None if world.robot is None else (world.robot.name, world.robot.type, world.robot.base_pose)
+    return objects, robot
+
+
+_SCENES: "OrderedDict[tuple, Scene]" = OrderedDict()
+
+
+def scene_for(rollout: Rollout, odb: ObjectDatabase) -> Scene:
+    """The diagram for the rollout's structure, built on first use in this process and kept (least recently used
+    first out)."""
+    key = (id(odb), str(odb.root), structure(rollout.world, odb), rollout.extras, rollout.config)
+    scene = _SCENES.get(key)
+    if scene is not None:
+        _SCENES.move_to_end(key)
+        return scene
+    scene = build_scene(rollout.world, odb, rollout.config, extras=rollout.extras)
+    _SCENES[key] = scene
+    while len(_SCENES) > SCENE_CACHE:
+        _SCENES.popitem(last=False)
+    return scene
+
+
+def run_rollout(rollout: Rollout, odb: ObjectDatabase, options: SimOptions = SimOptions(), *,
+                on_sample: Callable[[float, Mapping[str, Pose], list[Contact]], None] | None = None,
+                progress: Callable[[float, float], None] | None = None) -> ReplayResult:
+    """Simulate `rollout` in this process (its scene from the cache). Raises `SimulationFailure` when the replay
+    fails (see `bridge.sim.simulate.FailurePolicy`) and any other `BridgeError` for bad input."""
+    return simulate(scene_for(rollout, odb), rollout.telemetry, world=rollout.world, values=rollout.values,
+                    hooks=rollout.hooks, options=options, on_sample=on_sample, progress=progress)
+
+
+def start_contacts(rollout: Rollout, odb: ObjectDatabase) -> list[Contact]:
+    """What touches what in the rollout's world before anything moves (contacts and near pairs)."""
+    return contacts_at_start(scene_for(rollout, odb), rollout.world, rollout.values)
+
+
+# --- jobs for executors -----------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Job:
+    """One rollout to simulate somewhere, and what to record."""
+
+    rollout: Rollout
+    options: SimOptions = field(default_factory=SimOptions)
+
+
+@dataclass(frozen=True, eq=False)
+class Outcome:
+    """A job's result: the replay, or why it failed (a `SimulationFailure`: counted and reported by the caller,
+    never mistaken for a result). Times are those of the process that ran it."""
+
+    name: str
+    result: ReplayResult | None
+    failure: str | None = None
+    wall_time: float = 0.0
+    cpu_time: float = 0.0
+
+    @property
+    def failed(self) -> bool:
+        return self.failure is not None
+
+
+def run_job(job: Job, odb: ObjectDatabase) -> Outcome:
+    """Run one job; a failed simulation is an `Outcome` with its message, every other error propagates (bad input
+    must reach the user, not be scored)."""
+    started, cpu = wallclock.perf_counter(), wallclock.process_time()
+    try:
+        result = run_rollout(job.rollout, odb, job.options)
+    except SimulationFailure as exc:
+        return Outcome(job.rollout.name, None, str(exc), wallclock.perf_counter() - started,
+                       wallclock.process_time() - cpu)
+    return Outcome(job.rollout.name, result, None, result.wall_time, result.cpu_time)

@@ -1,0 +1,230 @@
+"""The one simulation loop: replay joint telemetry in a built scene and record what inference, fitting and
+diagnosis read (object pose tracks, contacts, the force on the robot, the robot's joints).
+
+The robot starts where its telemetry is at t = 0 and follows it through its PD gains; before the first and after
+the last sample it holds that sample (telemetry shifted by a latency may start before t = 0). The scene is
+sampled every 1/`sample_rate` s from t = 0 to `end` (default: the telemetry's end + `settle`, so objects come
+to rest). Context hooks may change the running context between samples.
+
+One failure policy (`FailurePolicy`) for every caller: a replay that produces garbage raises `SimulationFailure`
+with what happened and when, instead of handing garbage on: Drake stopping, NaN or diverging velocities, an
+object faster than `max_speed`, an object through its support or out of the world, and (unless switched off) a
+robot that cannot follow its telemetry.
+"""
+from __future__ import annotations
+
+import math
+import time as wallclock
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Protocol, Sequence
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+
+from ..errors import SimulationFailure
+from ..odb.geometry import contains_xy, z_range
+from ..recording.telemetry import Telemetry, validate_telemetry
+from ..values import Contact, Pose
+from ..world import WorldState
+from .contacts import PROXIMITY, ContactReader
+from .scene import Scene, SceneValues, from_drake
+
+MOVED_TRANSLATION = 0.005  # m
+MOVED_ROTATION = math.radians(3.0)
+
+
+class ContextHook(Protocol):
+    """Changes a running context between samples. `start` returns the hook's state; `update` gets it back."""
+
+    def start(self, scene: Scene, context, values: SceneValues) -> object: ...
+
+    def update(self, scene: Scene, context, t: float, poses: dict, state: object) -> None: ...
+
+
+@dataclass(frozen=True)
+class FailurePolicy:
+    """When a replay counts as failed. The speed limits turn an exploding simulation into a failure; the
+    tracking limits catch a simulated robot held back by something the real one did not meet."""
+
+    max_speed: float = 20.0  # m/s of any object
+    max_velocity: float = 1e3  # any generalized velocity (m/s or rad/s): diverged
+    max_tracking_error: float = 0.25  # rad (or m) a joint may lag its telemetry ...
+    max_tracking_time: float = 0.3  # ... for at most this long (s)
+    check_tracking: bool = True
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """What to simulate and record. Contacts, the robot's force and its joints cost time: ask for what you use."""
+
+    sample_rate: float = 50.0  # Hz of the tracks and the contact log
+    settle: float = 0.5  # s simulated after the telemetry ends (when `end` is not given)
+    end: float | None = None  # s: simulate from 0 to here instead
+    contacts: bool = False  # every contact at every sample (`contact_log`, `touched_by_robot`)
+    final_contacts: bool = False  # contacts and near pairs (PROXIMITY) at the end, for inference
+    robot_force: bool = False  # the contact force on the robot at every sample (what its force sensor reads)
+    joint_track: bool = False  # the simulated robot's actuated joints at every sample
+    policy: FailurePolicy = field(default_factory=FailurePolicy)
+
+
+@dataclass(frozen=True, eq=False)
+class ReplayResult:
+    times: np.ndarray  # (T,) sample times, s
+    tracks: Mapping[str, np.ndarray]  # free object -> (T, 7): x, y, z, qw, qx, qy, qz
+    final_contacts: tuple[Contact, ...]
+    contact_log: tuple[Contact, ...]  # every contact at every sample time (when recorded)
+    moved: tuple[str, ...]
+    touched_by_robot: tuple[str, ...]
+    max_tracking_error: float
+    sim_time: float
+    wall_time: float
+    cpu_time: float = 0.0
+    robot: str | None = None
+    joint_names: tuple[str, ...] = ()  # the robot's actuated joints, the columns of joint_track
+    joint_track: np.ndarray | None = None  # (T, J) simulated robot positions
+    robot_force: np.ndarray | None = None  # (T, 3) N on the robot from what it touches, world frame
+
+    @property
+    def final_poses(self) -> dict[str, Pose]:
+        return {n: track_pose(t[-1]) for n, t in self.tracks.items()}
+
+    def pose_at(self, name: str, t: float) -> Pose:
+        i = int(np.clip(np.searchsorted(self.times, t), 0, len(self.times) - 1))
+        return track_pose(self.tracks[name][i])
+
+    @property
+    def realtime_factor(self) -> float:
+        return self.sim_time / self.wall_time if self.wall_time > 0 else float("inf")
+
+    def contact_pairs(self) -> frozenset[tuple[str, str]]:
+        return frozenset((c.body_a, c.body_b) for c in self.contact_log)
+
+
+def track_pose(row: np.ndarray) -> Pose:
+    q = row[3:7] / np.linalg.norm(row[3:7])
+    return Pose(tuple(row[:3]), tuple(q))
+
+
+def sample_times(end: float, rate: float) -> np.ndarray:
+    """0, 1/rate, 2/rate, ... up to `end` (at least two samples)."""
+    n = max(2, int(math.floor(end * rate + 1e-9)) + 1)
+    return np.arange(n) / rate
+
+
+def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | None = None,
+             values: SceneValues | None = None, hooks: Sequence[ContextHook] = (), options: SimOptions = SimOptions(),
+             on_sample: Callable[[float, Mapping[str, Pose], list[Contact]], None] | None = None,
+             progress: Callable[[float, float], None] | None = None) -> ReplayResult:
+    """Replay `telemetry` from `world` (default: the scene's) with `values` written into a fresh context.
+    `on_sample(t, poses, contacts)` sees every sample (the on-line estimates); `progress(t, end)` too."""
+    started, cpu = wallclock.perf_counter(), wallclock.process_time()
+    world = world or scene.world
+    values = values or SceneValues()
+    policy = options.policy
+    plant = scene.plant
+    context = scene.new_context(world, values)
+    plant_ctx = plant.GetMyMutableContextFromRoot(context)
+    actuated, cols = [], None
+    if scene.robot_instance is not None and telemetry is not None:
+        validate_telemetry(telemetry, scene.robot_joints)
+        cols = scene.actuator_columns(telemetry.joint_names)
+        scene.set_desired(context, telemetry.times, telemetry.positions[:, cols])
+        start = dict(zip(telemetry.joint_names, telemetry.sample(0.0)))
+        plant.SetPositions(plant_ctx, scene.robot_instance, scene.robot_positions(start))
+        actuated = scene.actuated_joints()
+    end = options.end if options.end is not None else (telemetry.end if telemetry is not None else 0.0) + options.settle
+    times = sample_times(end, options.sample_rate)
+    names = list(scene.bodies)
+    tracks = {name: np.zeros((len(times), 7)) for name in names}
+    robot = world.robot.name if world.robot is not None else None
+    want_force = options.robot_force and robot is not None
+    read_contacts = options.contacts or on_sample is not None or want_force
+    reader = ContactReader(scene) if read_contacts or options.final_contacts else None
+    force = np.zeros((len(times), 3)) if want_force else None
+    joints = np.zeros((len(times), len(actuated))) if options.joint_track and actuated else None
+    supports = [(n, scene.odb.get(o.type).geometry, o.pose) for n, o in world.objects.items()
+                if scene.odb.get(o.type).fixed and scene.odb.get(o.type).geometry is not None]
+    states = [hook.start(scene, context, values) for hook in hooks]
+    log: list[Contact] = []
+    worst, lag_since = 0.0, None
+    simulator = Simulator(scene.diagram, context)
+    simulator.Initialize()
+    for k, t in enumerate(times):
+        t = float(t)
+        if t > 0:
+            try:
+                simulator.AdvanceTo(t)
+            except RuntimeError as exc:
+                raise SimulationFailure(f"Drake stopped at t = {context.get_time():.3f} s: "
+                                        f"{str(exc).splitlines()[0]}") from None
+        v = plant.GetVelocities(plant_ctx)
+        if not np.all(np.isfinite(v)) or not np.all(np.isfinite(plant.GetPositions(plant_ctx))):
+            raise SimulationFailure(f"the simulation produced NaN at t = {t:.3f} s (try a smaller time step)")
+        if v.size and float(np.max(np.abs(v))) > policy.max_velocity:
+            raise SimulationFailure(f"the simulation diverged at t = {t:.3f} s")
+        poses = {}
+        for name in names:
+            pose = from_drake(plant.EvalBodyPoseInWorld(plant_ctx, scene.bodies[name]))
+            poses[name] = pose
+            tracks[name][k] = (*pose.xyz, *pose.quat)
+            _check_support(name, pose, supports, t)
+            speed = float(np.linalg.norm(plant.EvalBodySpatialVelocityInWorld(plant_ctx, scene.bodies[name])
+                                         .translational()))
+            if speed > policy.max_speed:
+                raise SimulationFailure(f"object {name!r} moves at {speed:.1f} m/s at t = {t:.3f} s (diverged)")
+        if actuated:
+            q_now = np.array([j.GetOnePosition(plant_ctx) for j in actuated])
+            if joints is not None:
+                joints[k] = q_now
+            if policy.check_tracking and t <= telemetry.end:
+                err = np.abs(q_now - telemetry.sample(t)[cols])
+                j = int(np.argmax(err))
+                worst = max(worst, float(err[j]))
+                if err[j] > policy.max_tracking_error:
+                    lag_since = t if lag_since is None else lag_since
+                    if t - lag_since > policy.max_tracking_time:
+                        raise SimulationFailure(
+                            f"the robot cannot follow its telemetry: joint {actuated[j].name()!r} is {err[j]:.3f} off "
+                            f"at t = {t:.2f} s (blocked by a collision, or telemetry too fast for the PD gains)")
+                else:
+                    lag_since = None
+        for hook, state in zip(hooks, states):
+            hook.update(scene, context, t, poses, state)
+        contacts: list[Contact] = []
+        if read_contacts:
+            contacts = reader.read(context, t)
+            if options.contacts:
+                log.extend(contacts)
+            if force is not None:
+                force[k] = reader.force_on(contacts, robot)
+        if on_sample is not None:
+            on_sample(t, poses, contacts)
+        if progress is not None:
+            progress(t, float(times[-1]))
+    final = tuple(reader.read(context, float(times[-1]), proximity=PROXIMITY)) if options.final_contacts else ()
+    moved = tuple(name for name in names if _moved(tracks[name]))
+    touched = tuple(sorted({c.other(robot) for c in log if robot and c.involves(robot)
+                            and not c.other(robot).startswith(robot + "/")} - {"world"}))
+    return ReplayResult(times, tracks, final, tuple(log), moved, touched, worst, float(times[-1]),
+                        wallclock.perf_counter() - started, wallclock.process_time() - cpu, robot,
+                        tuple(j.name() for j in actuated), joints, force)
+
+
+def _moved(track: np.ndarray) -> bool:
+    start = track_pose(track[0])
+    translation = np.max(np.linalg.norm(track[:, :3] - track[0, :3], axis=1))
+    if translation > MOVED_TRANSLATION:
+        return True
+    dots = np.abs(track[:, 3:7] @ np.asarray(start.quat))
+    return bool(2 * np.arccos(np.clip(np.min(dots), -1, 1)) > MOVED_ROTATION)
+
+
+def _check_support(name: str, pose: Pose, supports, t: float) -> None:
+    """An object below a fixture's bottom inside its footprint went through it; below -5 m it fell out."""
+    for support, geometry, support_pose in supports:
+        low, _ = z_range(geometry, support_pose)
+        if pose.xyz[2] < low and contains_xy(geometry, support_pose, pose.position, margin=0.02):
+            raise SimulationFailure(f"object {name!r} went through {support!r} at t = {t:.2f} s (contact too soft, "
+                                    "or time step too large)")
+    if pose.xyz[2] < -5.0:
+        raise SimulationFailure(f"object {name!r} fell out of the world at t = {t:.2f} s")
