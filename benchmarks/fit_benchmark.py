@@ -2,8 +2,9 @@
 
 1. Optimisers. On the synthetic recovery problem (4 parameters like the paper's: two frictions, the small box's
    mass and the big box's centre of mass; `bridge.fit.synthetic`), the paper's ES (lambda = 10 D = 40, mu = 10,
-   rho = 2) runs 30 generations; its best error is the target. Reported: how many simulations the ES and
-   CMA-ES (cma's default population) need to reach that target, from the same wrong start and seed.
+   rho = 2) runs 30 generations; its best error is the target. Reported: how many simulations the ES, CMA-ES
+   (cma's default population) and Levenberg-Marquardt (on the residual of the same error) need to reach that
+   target, from the same wrong start and seed.
 2. Workers. The wall time of one fixed fit with a process pool of 1 and of 2 workers (pools started and warmed
    up first, so the time is the fit's). Target: 2 workers >= 1.8x faster.
 3. Real data. MIT planar pushing (Yu, Bauza, Fazeli, Rodriguez, IROS 2016): fit the surface's and the pusher
@@ -29,19 +30,20 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from bridge.fit.executors import make_executor  # noqa: E402
+from bridge.fit.evaluate import evaluate  # noqa: E402
 from bridge.fit.fit import FitResult, fit_parameters  # noqa: E402
-from bridge.fit.params import parse_params  # noqa: E402
 from bridge.fit.synthetic import TRUE_VALUES, push_trials, recovery, recovery_spec  # noqa: E402
 from bridge.odb import load_object_database  # noqa: E402
+from bridge.params import parse_params  # noqa: E402
+from bridge.rollout import make_executor  # noqa: E402
 
 SPEEDUP_TARGET = 1.8
 ROD_FRICTION, BLOCK_FRICTION = 0.25, 0.25  # models/pusher2d/pusher2d.sdf and odb/types/mit_push.yaml
 
 FULL = dict(es_generations=30, es_lam=40,  # mu = lam / 4 = 10, as in the paper
-            cmaes_generations=120, speed_generations=10, speed_popsize=8, speed_repeats=2,
+            cmaes_generations=120, lm_iterations=20, speed_generations=10, speed_popsize=8, speed_repeats=2,
             mit_trials=None, mit_duration=1.2, mit_generations=8, mit_popsize=6)
-QUICK = dict(es_generations=8, es_lam=20, cmaes_generations=30, speed_generations=4, speed_popsize=8,
+QUICK = dict(es_generations=8, es_lam=20, cmaes_generations=30, lm_iterations=10, speed_generations=4, speed_popsize=8,
              speed_repeats=1,
              mit_trials=8, mit_duration=0.6, mit_generations=3, mit_popsize=4)
 
@@ -73,8 +75,12 @@ def part_optimizers(odb, executor, cfg: dict, seed: int) -> dict:
                          generations=cfg["cmaes_generations"], hold_out=0, patience=cfg["cmaes_generations"],
                          tol=0.0, target_error=target)
     cma_time = time.perf_counter() - started
+    started = time.perf_counter()
+    lm = fit_parameters(trials, spec, odb=odb, executor=executor, optimizer="lm", seed=seed,
+                        generations=cfg["lm_iterations"], hold_out=0)
+    lm_time = time.perf_counter() - started
     rows = {}
-    for name, result, seconds in (("es", es, es_time), ("cmaes", cma, cma_time)):
+    for name, result, seconds in (("es", es, es_time), ("cmaes", cma, cma_time), ("lm", lm, lm_time)):
         rows[name] = {
             "simulations_to_target": simulations_to_reach(result, target, len(trials)),
             "generations_run": result.generations, "popsize": result.history[0].evaluations,
@@ -108,15 +114,16 @@ def parallel_capacity(n: int = 5_000_000) -> float:
 
 
 class _Recording:
-    """Passes a fit's batches to an executor and keeps every task's result (with its CPU time) per batch."""
+    """Passes a fit's batches to an executor and keeps every task's CPU time per batch."""
 
     def __init__(self, executor):
-        self.executor, self.kind, self.workers, self.batches = executor, executor.kind, executor.workers, []
+        self.executor, self.kind, self.workers, self.odb = executor, executor.kind, executor.workers, executor.odb
+        self.batches = []
 
-    def evaluate(self, trials, spec, xs, **kwargs):
-        rows = self.executor.evaluate(trials, spec, xs, **kwargs)
-        self.batches.append([r.cpu_time for row in rows for r in row])
-        return rows
+    def run(self, jobs):
+        outcomes = self.executor.run(jobs)
+        self.batches.append([o.cpu_time for o in outcomes])
+        return outcomes
 
 
 def scheduled_time(batches: list[list[float]], workers: int) -> float:
@@ -139,7 +146,7 @@ def part_workers(odb, cfg: dict, seed: int) -> dict:
     for repeat in range(cfg["speed_repeats"]):
         for workers in (1, 2):
             with make_executor("process", odb, workers=workers) as executor:
-                executor.evaluate(trials, spec, [None] * (2 * workers))  # warm up: import Drake, build the diagrams
+                evaluate(executor, trials, spec, [None] * (2 * workers))  # warm up: import Drake, build the diagrams
                 capacity, load = parallel_capacity(), os.getloadavg()[0]
                 recorder = _Recording(executor)
                 started = time.perf_counter()
@@ -167,7 +174,7 @@ def part_workers(odb, cfg: dict, seed: int) -> dict:
 
 
 def part_mit(odb, executor, cfg: dict, seed: int) -> dict | None:
-    from bridge.fit.trials import load_trials
+    from bridge.rollout import load_trials
     from bridge.recording.mitpush import find_mit_push_root
 
     root = find_mit_push_root()
@@ -234,7 +241,7 @@ def print_optimizers(r: dict) -> None:
           f"best error after {r['es_generations']} generations: e = {r['target_e'] * 1e3:.4f} mm")
     print(f"   {'optimizer':<10}{'sims to target':>16}{'generations':>13}{'best e (mm)':>13}{'wall (s)':>10}   "
           "fitted - true")
-    for name in ("es", "cmaes"):
+    for name in ("es", "cmaes", "lm"):
         row = r[name]
         sims = row["simulations_to_target"]
         errors = ", ".join(f"{k.split('[')[0]} {v:+.3f}" for k, v in row["recovery_error"].items())

@@ -17,8 +17,9 @@ import json
 import time
 from pathlib import Path
 
-from bridge.diagnosis.prove import SETTINGS, proof_cases, proof_json, proof_text, run_case, summarise
 from bridge.odb import load_object_database
+from bridge.prove.proof import SETTINGS, proof_cases, proof_json, proof_text, run_case, summarise
+from bridge.rollout import make_executor
 
 REPO = Path(__file__).resolve().parents[1]
 TARGETS = {"verdict_right": 0.9, "none_on_clean": 0.9, "held_out_excess_reduction_when_right_median": 0.7,
@@ -43,13 +44,15 @@ def main() -> None:
         odb = load_object_database()
         done = {r["case"] for r in rows}
         cases = [c for c in proof_cases("full") if args.only is None or c.scene == args.only]
-        for k, case in enumerate(cases):
-            if case.name in done:
-                continue
-            r = run_case(case, odb, out / case.name, SETTINGS["full"], workers=args.workers)
-            rows.append(r.to_json())
-            progress_path.write_text(json.dumps(rows, indent=1))
-            print(f"[{k + 1}/{len(cases)}] {case.name}: {r.verdict} ({r.recovery.text}) {r.seconds:.0f} s", flush=True)
+        with make_executor("serial" if args.workers == 1 else "process", odb, workers=args.workers) as executor:
+            for k, case in enumerate(cases):
+                if case.name in done:
+                    continue
+                r = run_case(case, odb, out / case.name, SETTINGS["full"], executor=executor)
+                rows.append(r.to_json())
+                progress_path.write_text(json.dumps(rows, indent=1))
+                print(f"[{k + 1}/{len(cases)}] {case.name}: {r.verdict} ({r.recovery.text}) {r.seconds:.0f} s",
+                      flush=True)
     text = proof_text(rows)
     print(text)
     result_path = REPO / "benchmarks" / "results" / "prove.json"

@@ -1,0 +1,90 @@
+"""The diagnosis' search: runs cached per model, fits in normalised coordinates with the shared optimisers (through
+the real Drake simulation), uncertainty from the curvature, and the criteria that compare fitted models."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bridge.diagnosis.effects import get_effect, pname
+from bridge.diagnosis.runs import Run, Runner, prepare
+from bridge.diagnosis.search import Evaluator, FitResult, bic, correlation_time, fit, pose_error_of, screen
+from bridge.params import KINDS, Parameter, ParameterSet
+from bridge.prove.generate import generate_case
+from bridge.prove.scenes import Case
+from bridge.rollout import load_trials, make_executor
+
+
+def _run(residual: np.ndarray) -> Run:
+    return Run("t", {"block": residual}, residual.ravel())
+
+
+def test_correlation_time_is_one_for_white_noise_and_long_for_a_smooth_misfit():
+    rng = np.random.default_rng(0)
+    white = _run(rng.normal(size=(200, 6)))
+    t = np.linspace(0, 1, 200)[:, None]
+    smooth = _run(np.sin(2 * np.pi * t) + 0.01 * rng.normal(size=(200, 6)))
+    assert correlation_time([white]) == pytest.approx(1.0, abs=0.3)
+    assert correlation_time([smooth]) > 10
+
+
+def test_bic_pays_for_parameters_and_rewards_fit():
+    assert bic(100.0, 1000, 2, 1.0) > bic(100.0, 1000, 1, 1.0)  # a parameter costs ln(n)
+    assert bic(90.0, 1000, 2, 1.0) < bic(100.0, 1000, 1, 1.0)  # ... less than ten units of chi^2 buy
+    assert bic(100.0, 1000, 1, 10.0) < bic(100.0, 1000, 1, 1.0)  # correlated samples count less
+
+
+def test_uncertainty_from_the_curvature_of_a_linear_model():
+    """For r = J x - b with unit noise, cov = (J^T J)^-1 (times the reduced chi^2 when it exceeds 1), in
+    parameter units (normalised units times each step)."""
+    space = ParameterSet((Parameter(KINDS["force_x"], "a", bounds=(-1, 1), start=0.0, step=0.5),
+                          Parameter(KINDS["force_y"], "b", bounds=(-1, 1), start=0.0, step=2.0)))
+    J = np.array([[1.0, 0.0], [0.0, 2.0], [1.0, 1.0]] * 10)
+    result = FitResult(space, np.zeros(2), np.full(30, 0.5), J, (), 0)
+    expected = np.sqrt(np.diag(np.linalg.inv(J.T @ J))) * np.array([0.5, 2.0])
+    assert list(result.std().values()) == pytest.approx(expected)
+
+
+@pytest.fixture(scope="module")
+def friction_case(odb, tmp_path_factory):
+    """Two generated pushes on a surface with twice the database's friction (real Drake), prepared."""
+    paths, truth = generate_case(Case("planar", "friction", "medium", 3), odb,
+                                 tmp_path_factory.mktemp("search") / "case", 2, force_noise=None)
+    trials = load_trials(paths, odb)
+    executor = make_executor("serial", odb)
+    return Runner([prepare(t, odb, 25.0) for t in trials], odb, executor), truth
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("optimizer", ["lm", "cmaes"])
+def test_a_fit_finds_the_surface_friction_and_runs_are_cached(friction_case, odb, optimizer):
+    runner, truth = friction_case
+    world = runner.prepared[0].world
+    space = ParameterSet((Parameter.of("friction", "surface", world, odb),))
+    ev = Evaluator(runner, [0, 1])
+    before = runner.simulations
+    null = ev.chi2(space.model())
+    assert runner.simulations == before + 2
+    ev.chi2(space.model())
+    assert runner.simulations == before + 2  # the same model is not simulated twice
+    result = fit(ev, space, np.zeros(1), max_iterations=8, optimizer=optimizer)
+    found = result.values()["friction[surface]"]
+    true = truth.params[pname("friction", "surface")]
+    assert null > 2 * result.n and result.chi2 < 1.3 * result.n  # from twice the noise floor down to it
+    assert found == pytest.approx(true, rel=0.3), (found, true)
+    assert math.isfinite(result.std()["friction[surface]"]) and result.evaluations > 0
+    assert pose_error_of(result.runs).e < pose_error_of(ev.runs(space.model())).e
+
+
+@pytest.mark.slow
+def test_a_screen_step_lowers_the_residual_of_a_smooth_effect(friction_case, odb):
+    """One Gauss-Newton step from the null friction of the surface already removes most of the misfit."""
+    runner, _ = friction_case
+    world = runner.prepared[0].world
+    space = ParameterSet(get_effect("friction").parameters(world, odb, "surface"))
+    ev = Evaluator(runner, [0, 1])
+    null = ev.chi2(space.model())
+    x, chi2 = screen(ev, space, np.zeros(space.dim))
+    n = ev.vector(space.model()).size
+    assert chi2 - n < 0.5 * (null - n) and x[0] > 0  # half the excess gone; the friction went up, as concealed
