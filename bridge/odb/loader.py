@@ -33,8 +33,10 @@ from pathlib import Path
 from typing import Any, Mapping
 from xml.etree import ElementTree
 
+import yaml
+
 from ..errors import ObjectDatabaseError
-from ..files import read_yaml
+from ..files import load_yaml_text, read_yaml
 from ..values import is_identifier
 from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl, RobotSpec, SIERef
 
@@ -323,7 +325,7 @@ def _joint_types(model: Path, src: str, fld: str) -> dict[str, str]:
         root = ElementTree.parse(model).getroot()
     except (ElementTree.ParseError, OSError) as exc:
         raise ObjectDatabaseError(f"cannot read robot model {model}: {exc}", source=src, field=fld) from None
-    return {j.get("name"): j.get("type", "") for j in root.iter("joint") if j.get("name")}
+    return {j.get("name"): j.get("type") for j in root.iter("joint") if j.get("name") and j.get("type")}
 
 
 def _no_unknown(body: Mapping[str, Any], valid: set[str], src: str, fld: str) -> None:
@@ -363,9 +365,12 @@ def load_sie_class(package: str, ref: SIERef) -> type:
     """The class `ref` names. An SIE is any class with ``evaluate(obj, ctx)`` (usually a subclass of
     `bridge.inference.SIE`); the database checks the shape, not the ancestry, so it needs nothing of the
     inference layer above it."""
+    name = f"{package}.{ref.module}"
     try:
-        module = importlib.import_module(f"{package}.{ref.module}")
+        module = importlib.import_module(name)
     except ModuleNotFoundError as exc:
+        if exc.name is not None and not name.startswith(exc.name):  # the module exists; what it imports does not
+            raise ObjectDatabaseError(f"SIE module {ref.module!r} failed to import: {exc}", source=ref.source) from None
         raise ObjectDatabaseError(f"SIE module {ref.module!r} not found ({exc.msg})", source=ref.source) from None
     except Exception as exc:  # the module itself is broken
         raise ObjectDatabaseError(f"SIE module {ref.module!r} failed to import: {type(exc).__name__}: {exc}", source=ref.source) from None
@@ -384,9 +389,21 @@ def read_types(root: Path, datasets: Mapping[str, Path]) -> tuple[dict[str, Obje
 
 def dataset_names(root: Path) -> set[str]:
     """Datasets referenced by ``dataset://`` mesh paths, found without resolving anything."""
-    names = set()
+    names: set[str] = set()
+
+    def walk(node: Any) -> None:
+        if isinstance(node, str) and node.startswith(DATASET_SCHEME):
+            names.add(node[len(DATASET_SCHEME):].split("/", 1)[0])
+        elif isinstance(node, dict):
+            for value in node.values():
+                walk(value)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value)
+
     for path in (root / "types").rglob("*.yaml"):
-        for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
-            if DATASET_SCHEME in line:
-                names.add(line.split(DATASET_SCHEME, 1)[1].split("/", 1)[0].strip())
+        try:
+            walk(load_yaml_text(path.read_text(encoding="utf-8", errors="replace")))
+        except yaml.YAMLError:
+            continue  # read_types reports the file
     return names

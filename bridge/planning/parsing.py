@@ -137,7 +137,7 @@ _ACTION_HEAD = ("(define (domain check)\n(:requirements " + " ".join(":" + r for
 
 def _action_text(name: str, fields: dict[str, str]) -> tuple[str, list[tuple[int, int, str | None]]]:
     """The action as a domain text, with the span each field occupies in it."""
-    layout = [(_ACTION_HEAD.format(name=name), None), (fields["parameters"], "parameters"), (")\n:precondition ", None),
+    layout = [(_ACTION_HEAD.format(name=name), None), (fields["parameters"], "parameters"), ("\n)\n:precondition ", None),
               (fields["precondition"], "precondition"), ("\n:effect ", None), (fields["effect"], "effect"), ("\n))", None)]
     text, spans = "", []
     for part, key in layout:
@@ -159,17 +159,24 @@ def parse_action(name: str, fields: dict[str, str]) -> Action:
     try:
         return _transform("domain", _ActionTransformer(), text)[0]
     except _ParseFailure as failure:
-        key, where = _locate(failure.problem, spans, name, fields)
+        key, where = _locate(failure.problem, spans, name, fields, text)
         raise PddlError(failure.problem.message + where, field=key) from None
 
 
-def _locate(problem: SyntaxProblem, spans, name: str, fields: dict[str, str]) -> tuple[str, str]:
-    """The field an error lies in: from its offset, or else by parsing the fields one after the other."""
+def _locate(problem: SyntaxProblem, spans, name: str, fields: dict[str, str], text: str) -> tuple[str, str]:
+    """The field an error lies in: from its offset (one in the layout right after a field, past nothing but
+    white space, is that field's end), or else by parsing the fields one after the other."""
     if problem.offset is not None:
+        offset, last = problem.offset, None
         for start, end, key in spans:
-            if key and start <= problem.offset <= end:
-                local = problem.offset - start
+            if key and start <= offset <= end:
+                local = offset - start
                 return key, f" (at character {local + 1}: {_excerpt(fields[key], local)})"
+            if key:
+                last = (start, end, key)
+            elif last is not None and start <= offset <= end and not text[last[1]:offset].strip():
+                local = last[1] - last[0]
+                return last[2], f" (at character {local + 1}: {_excerpt(fields[last[2]], local)})"
         return "effect", ""
     for key, partial in (("parameters", {**fields, "precondition": "(and)", "effect": "(and)"}),
                          ("precondition", {**fields, "effect": "(and)"})):
@@ -234,9 +241,11 @@ def check_parentheses(text: str, *, allow_forms: bool) -> str | None:
     """
     if not isinstance(text, str):
         return f"must be PDDL written as text, got {text!r}"
-    code = "\n".join(line.split(";", 1)[0] for line in text.splitlines())
+    # comments blanked, not removed, so positions count in the text as written
+    code = "\n".join(line if ";" not in line else line[:line.index(";")] + " " * (len(line) - line.index(";"))
+                     for line in text.splitlines())
     if not allow_forms:
-        if "either" in code.lower():
+        if re.search(r"(?<![\w?-])either(?![\w-])", code, re.IGNORECASE):
             return "(either ...) types are not supported; give each parameter one type"
         if "(" in code or ")" in code:
             return "parameters are written without parentheses, e.g. '?r - robot ?o - box'"
@@ -256,7 +265,7 @@ def check_parentheses(text: str, *, allow_forms: bool) -> str | None:
             if depth == 0:
                 closed_at = i
         elif depth == 0 and not ch.isspace():
-            return f"must be a formula in parentheses, found {code.strip().split()[0]!r} outside"
+            return f"must be a formula in parentheses, found {code[i:].split()[0]!r} outside"
     if depth > 0:
         return f"unbalanced parentheses: {depth} '(' not closed"
     return None

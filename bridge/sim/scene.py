@@ -161,12 +161,13 @@ class Scene:
     def robot_positions(self, joints: Mapping[str, float]) -> np.ndarray:
         """Joint values (by name) in the plant's position order of the robot instance."""
         q = np.zeros(self.plant.num_positions(self.robot_instance))
-        offset = self._robot_q0()
+        offset = self.robot_q0()
         for name, value in joints.items():
             q[self.plant.GetJointByName(name, self.robot_instance).position_start() - offset] = value
         return q
 
-    def _robot_q0(self) -> int:
+    def robot_q0(self) -> int:
+        """The plant position index of the robot's first joint."""
         starts = [self.plant.get_joint(j).position_start() for j in self.plant.GetJointIndices(self.robot_instance)
                   if self.plant.get_joint(j).num_positions() > 0]
         return min(starts)
@@ -207,7 +208,10 @@ class Scene:
                 props = proximity(obj_type, self.config, p)
                 for gid in self.geometries[name]:
                     self.scene_graph.AssignRole(sg_ctx, self.plant.get_source_id(), gid, props, RoleAssign.kReplace)
-            if (p.mass is not None or p.com is not None or p.spread is not None) and name in self.bodies:
+            if p.mass is not None or p.com is not None or p.spread is not None:
+                if name not in self.bodies:
+                    raise SceneError(f"{name!r} is a fixture: it has no mass to change, only contact values",
+                                     field="values")
                 body = self.bodies[name]
                 mp = mass_properties(self.odb, obj_type.name)
                 mass = p.mass if p.mass is not None else mp.mass
@@ -217,6 +221,10 @@ class Scene:
                 G = UnitInertia(*(np.diag(I_com) / mass), *(I_com[[0, 0, 1], [1, 2, 2]] / mass))
                 M_com = SpatialInertia(mass, np.zeros(3), G)
                 body.SetSpatialInertiaInBodyFrame(plant_ctx, M_com.Shift(-com))
+        pushed = sorted(set(values.external_forces) - set(self.bodies))
+        if pushed:
+            raise SceneError(f"an external force on {pushed[0]!r}, which is no free object; free objects: "
+                             f"{', '.join(sorted(self.bodies)) or 'none'}", field="values")
         if self.force_source is not None:
             self.force_source.set_forces(self.force_source.GetMyMutableContextFromRoot(context), values.external_forces)
 

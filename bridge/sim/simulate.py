@@ -132,6 +132,10 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
         start = dict(zip(telemetry.joint_names, telemetry.sample(0.0)))
         plant.SetPositions(plant_ctx, scene.robot_instance, scene.robot_positions(start))
         actuated = scene.actuated_joints()
+    elif scene.robot_instance is not None and scene.desired_source is not None:  # no telemetry: hold still
+        held = [plant.GetPositions(plant_ctx, scene.robot_instance)[j.position_start() - scene.robot_q0()]
+                for j in scene.actuated_joints()]
+        scene.set_desired(context, np.array([0.0]), np.array([held]))
     end = options.end if options.end is not None else (telemetry.end if telemetry is not None else 0.0) + options.settle
     times = sample_times(end, options.sample_rate)
     names = list(scene.bodies)
@@ -176,11 +180,13 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             q_now = np.array([j.GetOnePosition(plant_ctx) for j in actuated])
             if joints is not None:
                 joints[k] = q_now
-            if policy.check_tracking and t <= telemetry.end:
+            if cols is not None and t <= telemetry.end:
                 err = np.abs(q_now - telemetry.sample(t)[cols])
                 j = int(np.argmax(err))
                 worst = max(worst, float(err[j]))
-                if err[j] > policy.max_tracking_error:
+                if not policy.check_tracking:
+                    pass
+                elif err[j] > policy.max_tracking_error:
                     lag_since = t if lag_since is None else lag_since
                     if t - lag_since > policy.max_tracking_time:
                         raise SimulationFailure(

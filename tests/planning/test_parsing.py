@@ -9,8 +9,15 @@ from pddl.formatter import plan_to_string, problem_to_string
 from pddl.logic.base import And, Not
 
 from bridge.errors import ActionError, PddlError
-from bridge.planning.parsing import (KEYWORDS, check_parentheses, parse_action, parse_goal, parse_plan, parse_problem,
-                                     relocated)
+from bridge.planning.parsing import (
+    KEYWORDS,
+    check_parentheses,
+    parse_action,
+    parse_goal,
+    parse_plan,
+    parse_problem,
+    relocated,
+)
 
 NUDGE = {
     "parameters": "?r - robot ?o - movable ?s - object",

@@ -162,12 +162,24 @@ def test_mass_spread_says_whether_the_inertia_scales_with_the_mass(scene, odb):
 
 
 def test_values_for_an_unknown_name_list_objects_and_robot_links(scene):
+    """A misspelt target must stop the replay with the names it could have meant, robot links included."""
     with pytest.raises(SceneError) as err:
         scene.new_context(values=SceneValues().with_object("bigbox", friction=0.3))
     message = str(err.value)
     assert "'bigbox'" in message
     assert "objects: big_box, small_box, table" in message
     assert "robot links with collision geometry: pusher/pusher_rod" in message
+
+
+@pytest.mark.parametrize("name", ["smallbox", "table"])
+def test_an_external_force_on_no_free_object_is_an_error(scene, name):
+    """A force parameter aimed at a misspelt object, or at a fixture that cannot move, must not be dropped
+    silently (the replay would run as if the force were there): like any other value, it names the object and
+    the free objects a force can act on."""
+    with pytest.raises(SceneError) as err:
+        scene.new_context(values=SceneValues().with_force(name, (0.0, 5.0, 0.0)))
+    message = str(err.value)
+    assert f"'{name}'" in message and "big_box" in message and "small_box" in message
 
 
 @pytest.mark.parametrize("change", [{"mass": 0.5}, {"com": (0.0, 0.0, 0.01)}, {"hydroelastic_modulus": 1e7},
@@ -177,6 +189,13 @@ def test_a_robot_link_takes_only_contact_values(scene, change):
     with pytest.raises(SceneError, match="robot link 'pusher/pusher_rod': only friction, dynamic_friction and "
                                          "dissipation can be set"):
         scene.new_context(values=SceneValues().with_object("pusher/pusher_rod", **change))
+
+
+@pytest.mark.parametrize("change", [{"mass": 5.0}, {"com": (0.0, 0.0, 0.01)}, {"spread": 0.0}])
+def test_a_fixture_takes_only_contact_values(scene, change):
+    """A table does not move: a mass for it is a mistake, said so rather than ignored."""
+    with pytest.raises(SceneError, match="'table' is a fixture: it has no mass to change"):
+        scene.new_context(values=SceneValues().with_object("table", **change))
 
 
 def test_robot_link_friction_is_written_into_the_context(scene):
@@ -202,6 +221,7 @@ def test_robot_link_friction_is_written_into_the_context(scene):
     (SurfacePatch("sheet", (0.6, 0.5, -0.1, 0.1), 0.75, 0.2), "surface patch 'sheet': region must have x1 > x0"),
 ])
 def test_a_bad_extra_is_a_scene_error(world, odb, extra, message):
+    """Extras are checked when the scene is built, each message naming the extra and what is allowed."""
     with pytest.raises(SceneError, match=message):
         build_scene(world, odb, extras=(extra,))
 

@@ -47,6 +47,7 @@ def lane_telemetry(x0: float, x1: float, move: tuple[float, float], end: float, 
 
 # --- the sample grid and the robot's start and end -------------------------------------------------------------
 def test_samples_run_from_zero_to_the_telemetry_end_plus_settle(scene):
+    """Tracks are compared with observations sample by sample: the grid must be exactly 0, 1/rate, ... end."""
     tel = lane_telemetry(0.3, 0.4, (0.1, 0.3), 0.4)
     result = simulate(scene, tel, options=SimOptions(sample_rate=25.0, settle=0.2))
     np.testing.assert_allclose(result.times, np.arange(16) / 25.0)  # 0 .. 0.6 s
@@ -69,13 +70,15 @@ def test_the_robot_starts_at_its_telemetry_and_holds_its_first_sample_until_it_s
     assert result.times[-1] == pytest.approx(0.25 + 0.15)  # the shifted telemetry's end + settle
     assert result.max_tracking_error < 0.005
 
-    late = tel.shifted(0.2)  # starts at 0.2 s, moves from 0.3 s
+    moving = lane_telemetry(0.3, 0.4, (0.0, 0.2), 0.3)  # moves from its first sample on, at 0.5 m/s
+    late = moving.shifted(0.2)
     result = simulate(scene, late, options=SimOptions(settle=0.1, joint_track=True))
-    np.testing.assert_array_equal(result.joint_track[0], tel.positions[0])
-    waiting = result.times < 0.3
-    np.testing.assert_allclose(result.joint_track[waiting], np.tile(tel.positions[0], (waiting.sum(), 1)), atol=1e-6)
+    np.testing.assert_array_equal(result.joint_track[0], moving.positions[0])
+    waiting = result.times < 0.2  # held still until then, not led by the first segment's velocity
+    assert waiting.sum() == 10
+    np.testing.assert_allclose(result.joint_track[waiting], np.tile(moving.positions[0], (10, 1)), atol=1e-6)
     assert result.joint_track[-1, 0] == pytest.approx(0.4, abs=1e-4)
-    assert result.times[-1] == pytest.approx(0.6 + 0.1)
+    assert result.times[-1] == pytest.approx(0.5 + 0.1)
 
 
 def test_after_the_last_sample_the_robot_comes_to_rest_there(scene):
@@ -111,7 +114,19 @@ def test_without_telemetry_the_robot_holds_the_worlds_joints(scene, world):
     np.testing.assert_allclose(seen[-1], expected, atol=1e-3)
 
 
+def test_telemetry_columns_may_come_in_any_order(scene, slide):
+    """Bags list joints in their own order: the replay maps columns to actuators by name."""
+    swapped = Telemetry(slide.times, tuple(reversed(slide.joint_names)), slide.positions[:, ::-1])
+    options = SimOptions(settle=0.0, joint_track=True)
+    a, b = simulate(scene, slide, options=options), simulate(scene, swapped, options=options)
+    np.testing.assert_array_equal(b.joint_track, a.joint_track)
+    for name, track in a.tracks.items():
+        np.testing.assert_array_equal(b.tracks[name], track, err_msg=name)
+    assert b.max_tracking_error == a.max_tracking_error < 0.01
+
+
 def test_telemetry_for_another_robot_is_a_recording_error(scene):
+    """Checked before anything is simulated, naming the joint the robot lacks."""
     tel = Telemetry(np.array([0.0, 0.1]), ("arm_joint1", "pusher_x"), np.zeros((2, 2)))
     with pytest.raises(RecordingError, match="telemetry joint 'arm_joint1' is not a joint of the robot"):
         simulate(scene, tel)
@@ -131,6 +146,7 @@ def test_garbage_physics_is_a_failure_saying_what_and_when(scene, slide, force, 
 
 
 def test_an_object_below_the_world_fell_out(scene, world):
+    """Checked at every sample, the first (t = 0) included."""
     lost = world.with_poses({"small_box": Pose((2.0, 0.0, -6.0))})
     with pytest.raises(SimulationFailure, match=r"object 'small_box' fell out of the world at t = 0\.00 s"):
         simulate(scene, None, world=lost, options=SimOptions(end=0.1))
@@ -173,10 +189,12 @@ def test_without_the_tracking_check_the_held_back_robot_is_replayed(blocked):
     assert result.joint_track[-1, 0] == pytest.approx(face, abs=0.001)
     np.testing.assert_allclose(result.robot_force[-1], (-200.0, 0.0, 0.0), atol=2.0)
     assert ("pusher/pusher_rod", "world") in result.contact_pairs() and result.touched_by_robot == ()
+    assert result.max_tracking_error > 0.1  # how far behind it fell is still reported
 
 
 # --- what is recorded ----------------------------------------------------------------------------------------
 def test_by_default_nothing_costly_is_recorded(scene, slide):
+    """A fit runs thousands of replays: contacts, the rod's force and its joints only when asked for."""
     result = simulate(scene, slide, options=SimOptions(settle=0.1))
     assert result.contact_log == () and result.final_contacts == () and result.touched_by_robot == ()
     assert result.robot_force is None and result.joint_track is None
@@ -200,11 +218,11 @@ def test_contacts_robot_force_and_joints_when_asked(scene, slide, odb):
         return sum((np.asarray(c.force) * (1 if c.body_a == "table" else -1) for c in result.contact_log
                     if c.time == t and {c.body_a, c.body_b} == {"table", name}), np.zeros(3))
 
-    mu = combined_friction(odb.get("table").physics.friction, odb.get("box").physics.friction)
-    free = float(result.times[15])  # 0.3 s: the rod backed off at 0.22 s, the boxes still slide in +x
-    assert np.all(result.robot_force[15] == 0.0)
+    k = 15  # 0.3 s: the rod backed off at 0.22 s, the boxes still slide in +x
+    free = float(result.times[k])
+    assert free == pytest.approx(0.3) and np.all(result.robot_force[k] == 0.0)
     for name, mass in (("big_box", 1.0), ("small_box", 0.3)):
-        k = 15
+        mu = combined_friction(odb.get("table").physics.friction, odb.get(name).physics.friction)
         assert result.tracks[name][k + 1, 0] - result.tracks[name][k - 1, 0] > 0.005  # sliding
         sliding = table_on(name, free)
         assert sliding[2] == pytest.approx(mass * G, rel=0.01)
