@@ -132,23 +132,20 @@ class Progress:
             print(file=sys.stderr)
 
 
-def _model(args):
-    """The settings a replay runs with: the diagnosed scene file (--scene: corrected poses, extra geometry, values,
-    clock), then a fitted parameter file (--params) on top. Both are parameter files."""
-    from .params import load_param_file, replay_model
-
-    return tuple(s for option in ("scene", "params") if getattr(args, option, None)
-                 for s in replay_model(load_param_file(getattr(args, option))))
-
-
 def _rollout(recording, odb, args):
-    """A recording's rollout under --scene / --params (every target checked against its world)."""
-    from .params import apply_model
+    """A recording's rollout under the diagnosed scene file (--scene: corrected poses, extra geometry, values,
+    clock), then a fitted parameter file (--params) on top; both are parameter files, every target checked
+    against the recording's world."""
+    from .params import apply_model, load_param_file, replay_model
     from .rollout import Rollout
     from .world import load_world_state
 
     rollout = Rollout(load_world_state(recording.world_path, odb), recording.telemetry, name=recording.name)
-    return apply_model(_model(args), rollout, odb, source=args.scene or args.params)
+    for option in ("scene", "params"):
+        path = getattr(args, option, None)
+        if path:
+            rollout = apply_model(replay_model(load_param_file(path)), rollout, odb, source=path)
+    return rollout
 
 
 def _session(recording_path, odb, args, *, label: str, events=None):

@@ -42,3 +42,25 @@ def odb():
     from bridge.odb import load_object_database
 
     return load_object_database()
+
+
+@pytest.fixture(scope="session")
+def trials(odb):
+    """The synthetic push scenario ('slide', 'turn') observed with `bridge.fit.synthetic.TRUE_VALUES`."""
+    from bridge.fit.synthetic import push_trials
+
+    return push_trials(odb)
+
+
+@pytest.fixture(scope="session")
+def slide(trials):
+    return [t for t in trials if t.name == "slide"]
+
+
+@pytest.fixture(scope="session")
+def pool(odb):
+    """Two spawned worker processes, shared by the slow tests (spawning and importing Drake costs seconds)."""
+    from bridge.rollout import make_executor
+
+    with make_executor("process", odb, workers=2) as executor:
+        yield executor

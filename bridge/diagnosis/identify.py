@@ -51,7 +51,7 @@ FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is
 class Options:
     effects: tuple[str, ...] | None = None  # restrict the catalog (None: all)
     max_full_fits: int = MAX_FULL_FITS
-    max_iterations: int = 6
+    max_iterations: int = 6  # per fit: solver evaluations (lm) or generations (es, cmaes)
     optimizer: str = "lm"  # of the full fits (bridge.optim.NAMES); screening always takes one Gauss-Newton step
 
 

@@ -24,7 +24,7 @@ from ..files import write_atomic
 from ..odb import ObjectDatabase
 from ..optim import NAMES, GenerationRecord, make_optimizer, restore_optimizer
 from ..optim.base import Progress as OptimizerProgress
-from ..optim.base import StopRule
+from ..optim.base import StopRule, Tracked
 from ..optim.lm import levenberg_marquardt
 from ..params import ParameterSet, check_targets
 from ..rollout.compare import DEFAULT_C, PoseError
@@ -247,7 +247,7 @@ def _fingerprint(spec: ParameterSet, fit_names, held_names, optimizer: str, seed
             "optimizer": optimizer, "seed": seed, "c": c}
 
 
-class _LeastSquaresRun:
+class _LeastSquaresRun(Tracked):
     """Levenberg-Marquardt in the fit driver's terms: each residual batch it asks for (a point, or a Jacobian's
     columns) is one "generation" of the history; the solver itself runs inside `run`, not through ask/tell."""
 
@@ -256,7 +256,7 @@ class _LeastSquaresRun:
     def __init__(self, rule: StopRule):
         self.rule = rule
         self._progress = OptimizerProgress(rule)
-        self.stop_reason: str | None = None
+        self._stopped: str | None = None
 
     def run(self, spec: ParameterSet, generation: Callable) -> None:
         lower, upper = spec.normal_bounds()
@@ -267,7 +267,7 @@ class _LeastSquaresRun:
 
         levenberg_marquardt(residuals, spec.to_normal(spec.start_values()), lower, upper,
                             max_iterations=self.rule.max_generations)
-        self.stop_reason = f"Levenberg-Marquardt: {self.rule.max_generations} solver evaluations at most"
+        self._stopped = f"Levenberg-Marquardt: {self.rule.max_generations} solver evaluations at most"
 
     def tell(self, units: Sequence[np.ndarray], errors: Sequence[float]) -> None:
         u = np.array(units, dtype=float)
@@ -279,24 +279,8 @@ class _LeastSquaresRun:
         return {"name": self.name, "options": {"max_generations": self.rule.max_generations}}
 
     @property
-    def done(self) -> bool:
-        return self.stop_reason is not None
-
-    @property
-    def generation(self) -> int:
-        return self._progress.generation
-
-    @property
-    def evaluations(self) -> int:
-        return self._progress.evaluations
-
-    @property
-    def best_x(self) -> np.ndarray | None:
-        return self._progress.best_x
-
-    @property
-    def history(self) -> tuple[GenerationRecord, ...]:
-        return tuple(self._progress.history)
+    def stop_reason(self) -> str | None:
+        return self._stopped
 
 
 class _RunState:

@@ -179,6 +179,41 @@ class Progress:
         return progress
 
 
+class Tracked:
+    """What every optimiser reports from its `Progress` (`self._progress`); `stop_reason` may add its own."""
+
+    _progress: Progress
+
+    @property
+    def generation(self) -> int:
+        """Generations told so far."""
+        return self._progress.generation
+
+    @property
+    def evaluations(self) -> int:
+        return self._progress.evaluations
+
+    @property
+    def best_x(self) -> np.ndarray | None:
+        return None if self._progress.best_x is None else self._progress.best_x.copy()
+
+    @property
+    def best_error(self) -> float:
+        return self._progress.best_error
+
+    @property
+    def stop_reason(self) -> str | None:
+        return self._progress.stop_reason()
+
+    @property
+    def done(self) -> bool:
+        return self.stop_reason is not None
+
+    @property
+    def history(self) -> tuple[GenerationRecord, ...]:
+        return tuple(self._progress.history)
+
+
 # --- helpers for the optimisers -------------------------------------------------------------------------
 def split_options(options: Mapping[str, Any], own: Sequence[str], optimizer: str) -> tuple[dict, StopRule]:
     """Separate an optimiser's own options from the stop rule's; unknown names are an error."""

@@ -21,7 +21,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..errors import FitError
-from .base import GenerationRecord, Progress, StopRule, check_start, check_told, split_options
+from .base import Progress, StopRule, Tracked, check_start, check_told, split_options
 
 _OWN_OPTIONS = ("popsize", "cma_options")
 _FORMAT = 1
@@ -39,7 +39,7 @@ class _Randn:
         return self.rng.standard_normal(shape)
 
 
-class CMAES:
+class CMAES(Tracked):
     """CMA-ES (Hansen) on [0, 1]^D via `cma`; `popsize` defaults to cma's 4 + floor(3 ln D)."""
 
     name = "cmaes"
@@ -92,23 +92,6 @@ class CMAES:
 
     # --- progress -----------------------------------------------------------------------------------
     @property
-    def generation(self) -> int:
-        """Generations told so far."""
-        return self._progress.generation
-
-    @property
-    def evaluations(self) -> int:
-        return self._progress.evaluations
-
-    @property
-    def best_x(self) -> np.ndarray | None:
-        return None if self._progress.best_x is None else self._progress.best_x.copy()
-
-    @property
-    def best_error(self) -> float:
-        return self._progress.best_error
-
-    @property
     def stop_reason(self) -> str | None:
         reason = self._progress.stop_reason()
         if reason is None and self._progress.generation > 0:
@@ -116,14 +99,6 @@ class CMAES:
             if stops:
                 reason = "cma: " + ", ".join(f"{k}={v}" for k, v in stops.items())
         return reason
-
-    @property
-    def done(self) -> bool:
-        return self.stop_reason is not None
-
-    @property
-    def history(self) -> tuple[GenerationRecord, ...]:
-        return tuple(self._progress.history)
 
     # --- checkpoints --------------------------------------------------------------------------------
     def state(self) -> dict:

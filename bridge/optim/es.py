@@ -19,13 +19,13 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..errors import FitError
-from .base import GenerationRecord, Progress, check_start, check_told, reflect, split_options
+from .base import Progress, Tracked, check_start, check_told, reflect, split_options
 
 _OWN_OPTIONS = ("lam", "mu", "rho", "tau", "sigma_min", "sigma_max")
 _FORMAT = 1
 
 
-class EvolutionStrategy:
+class EvolutionStrategy(Tracked):
     """(mu/rho + lambda)-ES on [0, 1]^D with one self-adapted sigma per individual."""
 
     name = "es"
@@ -99,36 +99,6 @@ class EvolutionStrategy:
             xs[k] = reflect(x_r + sigma * self._rng.standard_normal(self.dim))
             sigmas[k] = sigma
         return xs, sigmas
-
-    # --- progress -----------------------------------------------------------------------------------
-    @property
-    def generation(self) -> int:
-        """Generations told so far."""
-        return self._progress.generation
-
-    @property
-    def evaluations(self) -> int:
-        return self._progress.evaluations
-
-    @property
-    def best_x(self) -> np.ndarray | None:
-        return None if self._progress.best_x is None else self._progress.best_x.copy()
-
-    @property
-    def best_error(self) -> float:
-        return self._progress.best_error
-
-    @property
-    def stop_reason(self) -> str | None:
-        return self._progress.stop_reason()
-
-    @property
-    def done(self) -> bool:
-        return self.stop_reason is not None
-
-    @property
-    def history(self) -> tuple[GenerationRecord, ...]:
-        return tuple(self._progress.history)
 
     # --- checkpoints --------------------------------------------------------------------------------
     def state(self) -> dict:

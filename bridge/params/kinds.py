@@ -487,17 +487,26 @@ class Obstacle(Family):
                                                (x, y, top + height / 2), friction=0.5))
 
 
-class _ObstacleAxis(_Member):
-    family, unit, axis = Obstacle, "m", 0
+class _Place(_Member):
+    """A coordinate on a fixture's top (`axis` 0: world x, 1: y), within its extent."""
 
-    def null(self, world, odb, target):
+    unit, axis = "m", 0
+
+    def _along(self, world, odb, target) -> tuple[float, float]:
+        """The top's centre and half extent along the axis."""
         cx, cy, hx, hy = _extent(world, odb, target)
-        return (cx + hx, cy + hy)[self.axis]
+        return (cx, hx) if self.axis == 0 else (cy, hy)
 
     def bounds(self, world, odb, target):
-        cx, cy, hx, hy = _extent(world, odb, target)
-        c, h = (cx, hx) if self.axis == 0 else (cy, hy)
+        c, h = self._along(world, odb, target)
         return c - h, c + h
+
+
+class _ObstacleAxis(_Place):
+    family = Obstacle
+
+    def null(self, world, odb, target):  # out of the way: the far corner
+        return sum(self._along(world, odb, target))
 
     def step(self, world, odb, target):
         return 0.005
@@ -530,16 +539,11 @@ class Patch(Family):
         return rollout.with_extras(sheet)
 
 
-class _PatchCentre(_Member):
-    family, unit, axis = Patch, "m", 0
+class _PatchCentre(_Place):
+    family = Patch
 
     def null(self, world, odb, target):
-        return _extent(world, odb, target)[self.axis]
-
-    def bounds(self, world, odb, target):
-        cx, cy, hx, hy = _extent(world, odb, target)
-        c, h = (cx, hx) if self.axis == 0 else (cy, hy)
-        return c - h, c + h
+        return self._along(world, odb, target)[0]
 
     def step(self, world, odb, target):
         return 0.01

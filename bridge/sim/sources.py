@@ -73,6 +73,9 @@ class ConstantForces(LeafSystem):
 
     def _calc(self, context, output) -> None:
         values = context.get_numeric_parameter(self._param).get_value()
+        if not values.any():  # the usual case, evaluated every step: no Python loop
+            output.set_value([])
+            return
         forces = []
         for i, body in enumerate(self._bodies):
             f = values[3 * i: 3 * i + 3]

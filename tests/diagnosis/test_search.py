@@ -88,3 +88,19 @@ def test_a_screen_step_lowers_the_residual_of_a_smooth_effect(friction_case, odb
     x, chi2 = screen(ev, space, np.zeros(space.dim))
     n = ev.vector(space.model()).size
     assert chi2 - n < 0.5 * (null - n) and x[0] > 0  # half the excess gone; the friction went up, as concealed
+
+
+@pytest.mark.slow
+def test_a_model_naming_no_object_is_an_error_not_a_score(friction_case):
+    """Bad input reaches the user with its message; only a failed simulation is scored (and counted)."""
+    from bridge.errors import ParameterError
+    from bridge.params import Setting
+
+    runner, _ = friction_case
+    before = runner.simulations
+    with pytest.raises(ParameterError, match="obstacle_x\\[tabel\\]: 'tabel' names nothing in world"):
+        runner.run((Setting("obstacle_x", "tabel", 0.1),), [0])
+    assert runner.simulations == before and not runner.failures
+    (crushed,) = runner.run((Setting("force_z", "block", -1e5),), [0])
+    assert crushed.failed and "diverged" in crushed.failed
+    assert runner.failures == [(crushed.trial, crushed.failed)] and np.all(np.isfinite(crushed.normalised))
