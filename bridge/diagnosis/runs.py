@@ -38,7 +38,7 @@ class Prepared:
 
     trial: Trial
     series: tuple[ObservedSeries, ...]
-    end: float  # s simulated
+    end: float  # s simulated: past the last observation and the telemetry's end (to the sample before this)
     force: ForceSeries | None = None
 
     @property
@@ -136,8 +136,8 @@ class Runner:
 
     def job(self, model: Model, index: int, contacts: bool = False) -> Job:
         p = self.prepared[index]
-        options = SimOptions(sample_rate=self.sample_rate, end=p.end, contacts=contacts,
-                             robot_force=p.force is not None)
+        end = math.floor(p.end * self.sample_rate + 1e-9) / self.sample_rate  # a whole number of samples
+        options = SimOptions(sample_rate=self.sample_rate, end=end, contacts=contacts, robot_force=p.force is not None)
         return Job(trial_rollout(p.trial, model, self.odb), options)
 
     def run_many(self, models: Sequence[Model], indices: Sequence[int], *, tracks: bool = False,

@@ -3,8 +3,8 @@ diagnosis read (object pose tracks, contacts, the force on the robot, the robot'
 
 The robot starts where its telemetry is at t = 0 and follows it through its PD gains; before the first and after
 the last sample it holds that sample (telemetry shifted by a latency may start before t = 0). The scene is
-sampled every 1/`sample_rate` s from t = 0 to `end` (default: the telemetry's end + `settle`, so objects come
-to rest). Context hooks may change the running context between samples.
+sampled every 1/`sample_rate` s from t = 0 and at `end` (default: the telemetry's end + `settle`, so objects
+come to rest). Context hooks may change the running context between samples.
 
 One failure policy (`FailurePolicy`) for every caller: a replay that produces garbage raises `SimulationFailure`
 with what happened and when, instead of handing garbage on: Drake stopping, NaN or diverging velocities, an
@@ -106,9 +106,12 @@ def track_pose(row: np.ndarray) -> Pose:
 
 
 def sample_times(end: float, rate: float) -> np.ndarray:
-    """0, 1/rate, 2/rate, ... up to `end` (at least two samples)."""
+    """0, 1/rate, 2/rate, ... up to `end`, and `end` itself when it falls between two (at least two samples).
+    Multiples of 1/rate are multiples of the time step at the usual rates: each sample reads the state right
+    after a discrete update."""
     n = max(2, int(math.floor(end * rate + 1e-9)) + 1)
-    return np.arange(n) / rate
+    times = np.arange(n) / rate
+    return np.append(times, end) if end - times[-1] > 1e-9 else times
 
 
 def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | None = None,

@@ -47,7 +47,7 @@ def lane_telemetry(x0: float, x1: float, move: tuple[float, float], end: float, 
 
 # --- the sample grid and the robot's start and end -------------------------------------------------------------
 def test_samples_run_from_zero_to_the_telemetry_end_plus_settle(scene):
-    """Tracks are compared with observations sample by sample: the grid must be exactly 0, 1/rate, ... end."""
+    """Tracks are compared with observations sample by sample: the grid is exactly 0, 1/rate, ..., and `end`."""
     tel = lane_telemetry(0.3, 0.4, (0.1, 0.3), 0.4)
     result = simulate(scene, tel, options=SimOptions(sample_rate=25.0, settle=0.2))
     np.testing.assert_allclose(result.times, np.arange(16) / 25.0)  # 0 .. 0.6 s
@@ -55,7 +55,7 @@ def test_samples_run_from_zero_to_the_telemetry_end_plus_settle(scene):
     assert all(track.shape == (16, 7) for track in result.tracks.values())
     assert result.moved == ()  # the rod stayed in its lane
     explicit = simulate(scene, tel, options=SimOptions(sample_rate=10.0, end=0.33))
-    np.testing.assert_allclose(explicit.times, [0.0, 0.1, 0.2, 0.3])  # `end` wins; no sample past it
+    np.testing.assert_allclose(explicit.times, [0.0, 0.1, 0.2, 0.3, 0.33])  # `end` is the last; none past it
 
 
 def test_the_robot_starts_at_its_telemetry_and_holds_its_first_sample_until_it_starts(scene):
