@@ -164,3 +164,10 @@ def test_fit_needs_free_parameters_and_trials(slide, odb):
     with pytest.raises(FitError, match="no trials"):
         fit_parameters([], recovery_spec(FRICTIONS), odb=odb)
     assert TRUE_VALUES  # the truth the recovery test compares with
+
+
+def test_optimizer_choices_are_checked(slide, odb, tmp_path):
+    with pytest.raises(FitError, match="unknown optimizer 'ga'; valid: cmaes, es, lm"):
+        fit_parameters(slide, recovery_spec(FRICTIONS), odb=odb, optimizer="ga")
+    with pytest.raises(FitError, match="Levenberg-Marquardt fit keeps no checkpoint"):
+        fit_parameters(slide, recovery_spec(FRICTIONS), odb=odb, optimizer="lm", checkpoint=tmp_path, resume=True)
