@@ -28,6 +28,20 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
 }
 
 
+def _sample_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--samples", type=int, default=0, metavar="N", help="also replay N times with parameters drawn "
+                   "from the uncertainty of --scene/--params (their std) or the object database's ranges")
+    p.add_argument("--seed", type=int, default=0, help="seeds the drawn parameters (default %(default)s)")
+    p.add_argument("--executor", choices=("process", "dask", "serial"), default="process",
+                   help="where the samples run (default: %(default)s)")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per CPU)")
+
+
+def _probability_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--min-probability", type=float, default=0.9, metavar="P", help="facts at least this likely "
+                   "go into the PDDL problem; the uncertain ones are listed beside it (default %(default)s)")
+
+
 def _model_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", default=None, metavar="FILE", help="diagnosed scene file (scene.yaml from bridge diagnose)")
     p.add_argument("--params", default=None, metavar="FILE", help="fitted parameter file (params.yaml from bridge "
@@ -56,6 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("world", help="world-state YAML")
     p.add_argument("--out", default=".", help="folder for domain.pddl and problem.pddl (default: current folder)")
     p.add_argument("--goal", default=None, help="PDDL goal, e.g. '(and (on big_box tray))' (default: the world's goal)")
+    _probability_arg(p)
     p = add("diff")
     p.add_argument("a", help="world state before")
     p.add_argument("b", help="world state after, or a PDDL problem (.pddl)")
@@ -74,6 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
     _model_args(p)
+    _sample_args(p)
+    _probability_arg(p)
     p = add("demo")
     p.add_argument("--recordings", default=str(REPO_ROOT / "demo" / "recordings"), help="folder of recordings (default: the bundled trials)")
     p.add_argument("--out", default="out/demo", help="where to write inferred states (default: %(default)s)")
@@ -82,6 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recording", help="recording folder")
     p.add_argument("--out", default=None, help="HTML file (default: RECORDING/replay.html)")
     _model_args(p)
+    _sample_args(p)
     p = add("act")
     p.add_argument("world", help="world state before the action")
     p.add_argument("action", help="action template, e.g. push_over")

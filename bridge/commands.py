@@ -71,15 +71,19 @@ def check(args) -> int:
 
 
 def export(args) -> int:
-    from .planning.problem import export_pddl
+    from .planning.problem import export_pddl, uncertain_facts, uncertain_path
     from .world import load_world_state
 
     odb = _odb(args)
     world = load_world_state(args.world, odb)
     templates = _templates(args, odb)
     out = Path(args.out)
-    domain_path, problem_path = export_pddl(world, odb, templates, out, domain_name=_domain_name(args), goal=args.goal)
-    print(f"wrote {domain_path} and {problem_path}")
+    domain_path, problem_path = export_pddl(world, odb, templates, out, domain_name=_domain_name(args), goal=args.goal,
+                                            min_probability=args.min_probability)
+    uncertain = uncertain_facts(world, args.min_probability)
+    print(f"wrote {domain_path} and {problem_path}"
+          + (f"; {len(uncertain)} uncertain fact(s) left out, listed in {uncertain_path(problem_path)}"
+             if world.samples else ""))
     return 0
 
 
@@ -162,14 +166,41 @@ def _session(recording_path, odb, args, *, label: str, events=None):
         progress.close()
 
 
-def _write_outputs(session, odb, args, world_out: Path, problem_out: Path | None) -> None:
-    from .planning.problem import problem_text
+def _write_outputs(world, odb, args, world_out: Path, problem_out: Path | None) -> None:
+    """The world state after, and its PDDL problem (with a world's fact probabilities: the believed facts, and
+    the uncertain ones in comments and beside it as JSON)."""
     from .files import write_atomic
+    from .planning.problem import problem_text, write_uncertain
+    from .probability import DEFAULT_MIN_PROBABILITY
     from .world import save_world_state
 
-    save_world_state(session.inference.world, world_out)
+    save_world_state(world, world_out)
     if problem_out is not None:
-        write_atomic(problem_out, problem_text(session.inference.world, odb, _domain_name(args)))
+        threshold = getattr(args, "min_probability", DEFAULT_MIN_PROBABILITY)
+        write_atomic(problem_out, problem_text(world, odb, _domain_name(args), min_probability=threshold))
+        write_uncertain(world, problem_out, threshold)
+
+
+def _sampled(recording_path, odb, args, *, label: str, events=None):
+    """The recording replayed as it is and `--samples` times with parameters drawn from the uncertainty of the
+    --scene / --params files (entries with a std), or else from the object database's ranges."""
+    from .params import load_param_file
+    from .recording.recording import load_recording
+    from .rollout import make_executor
+    from .uncertainty import parameters_from_file, sample_session
+
+    recording = load_recording(recording_path)
+    rollout = _rollout(recording, odb, args)
+    drawn = [u for option in ("scene", "params") if getattr(args, option, None)
+             for u in parameters_from_file(load_param_file(getattr(args, option)), rollout.world, odb)]
+    progress = Progress(label)
+    try:
+        with make_executor(args.executor, odb, workers=args.workers) as executor:
+            return recording, sample_session(rollout, odb, args.samples, executor=executor, parameters=drawn or None,
+                                             seed=args.seed, event_period=args.event_period if events else None,
+                                             on_event=events, progress=progress)
+    finally:
+        progress.close()
 
 
 def _report_failures(session) -> int:
@@ -182,17 +213,33 @@ def infer(args) -> int:
     from .diff import diff_worlds
     from .teleop import json_lines
 
+    from .probability import check_min_probability
+
     odb = _odb(args)
+    check_min_probability(args.min_probability)
     events = json_lines(sys.stdout) if args.events else None
-    recording, session = _session(args.recording, odb, args, label=f"replaying {Path(args.recording).name}", events=events)
+    label = f"replaying {Path(args.recording).name}"
+    sampled = None
+    if args.samples:
+        from .uncertainty import probability_event, spread_text
+
+        recording, sampled = _sampled(args.recording, odb, args, label=label, events=events)
+        session, world = sampled.nominal, sampled.world
+        if events:
+            events(probability_event(sampled))
+    else:
+        recording, session = _session(args.recording, odb, args, label=label, events=events)
+        world = session.inference.world
     world_out = Path(args.world_out or Path(args.recording) / "world_after.yaml")
     problem_out = Path(args.problem_out) if args.problem_out else world_out.with_name("problem_after.pddl")
-    _write_outputs(session, odb, args, world_out, problem_out)
+    _write_outputs(world, odb, args, world_out, problem_out)
     out = sys.stderr if args.events else sys.stdout
-    print(diff_worlds(session.before, session.inference.world).text(), file=out)
+    print(diff_worlds(session.before, world).text(), file=out)
     r = session.replay
     print(f"replayed {r.sim_time:.1f} s at {r.realtime_factor:.1f}x real time; state inferred in "
           f"{session.seconds_to_state * 1000:.0f} ms; wrote {world_out} and {problem_out}", file=out)
+    if sampled is not None:
+        print(spread_text(sampled), file=out)
     return _report_failures(session)
 
 
@@ -208,7 +255,7 @@ def demo(args) -> int:
     for folder in folders:
         _, session = _session(folder, odb, args, label=folder.name)
         out = out_root / folder.name
-        _write_outputs(session, odb, args, out / "world_after.yaml", out / "problem_after.pddl")
+        _write_outputs(session.inference.world, odb, args, out / "world_after.yaml", out / "problem_after.pddl")
         r = session.replay
         print(f"== {folder.name}: {r.sim_time:.1f} s replayed at {r.realtime_factor:.1f}x real time, "
               f"moved: {', '.join(r.moved) or 'nothing'}")
@@ -226,9 +273,12 @@ def view(args) -> int:
     recording = load_recording(args.recording)
     out = Path(args.out or Path(args.recording) / "replay.html")
     r = _rollout(recording, odb, args)
+    spread = ()
+    if args.samples:  # where the objects end under the drawn parameters, as ghosts
+        spread = tuple(p for p in _sampled(args.recording, odb, args, label="sampling")[1].finals if p is not None)
     write_replay_html(r.world, r.telemetry, odb, out, observations=recording.observations, values=r.values,
-                      extras=r.extras, hooks=r.hooks)
-    print(f"wrote {out} (open it in a browser)")
+                      extras=r.extras, hooks=r.hooks, spread=spread)
+    print(f"wrote {out} (open it in a browser)" + (f"; {len(spread)} sampled final poses as ghosts" if spread else ""))
     return 0
 
 

@@ -7,6 +7,9 @@
     moved            [{"object": "big_box", "translation_m": 0.152, "rotation_deg": 87.3}, ...]
     objects_added    ["cup"]                          names only in the later state
     objects_removed  []                               names only in the earlier state
+    uncertain        [{"fact": "(upright big_box)", "p": 0.62, "interval": [0.42, 0.79]}, ...]
+                                                      facts of the later state that held in only some of its
+                                                      parameter samples (bridge infer --samples), likeliest first
 """
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from .probability import wilson_interval
 from .values import Fact
 from .world import WorldState
 
@@ -35,19 +39,28 @@ class WorldDiff:
     moved: tuple[ObjectMove, ...] = ()
     objects_added: tuple[str, ...] = ()
     objects_removed: tuple[str, ...] = ()
+    uncertain: tuple[tuple[Fact, float], ...] = ()  # (fact, probability) of the later state
+    samples: int = 0
 
     @property
     def empty(self) -> bool:
-        return not (self.added or self.removed or self.moved or self.objects_added or self.objects_removed)
+        return not (self.added or self.removed or self.moved or self.objects_added or self.objects_removed
+                    or self.uncertain)
 
     def text(self) -> str:
-        """One line per change: ``+ (on big_box tray)``, ``- (upright big_box)``, ``~ big_box moved 0.152 m, turned 87.3 deg``."""
+        """One line per change: ``+ (on big_box tray)``, ``- (upright big_box)``, ``~ big_box moved 0.152 m, turned
+        87.3 deg``, ``? (upright big_box) p = 0.62 [0.42, 0.79]`` (a fact that held in some samples only)."""
         lines = [f"- object {name}" for name in self.objects_removed]
         lines += [f"+ object {name}" for name in self.objects_added]
         lines += [f"- {fact}" for fact in sorted(self.removed)]
         lines += [f"+ {fact}" for fact in sorted(self.added)]
         lines += [f"~ {m.object} moved {m.translation_m:.3f} m, turned {m.rotation_deg:.1f} deg" for m in self.moved]
+        lines += [f"? {fact} p = {p:.2f} [{lo:.2f}, {hi:.2f}] of {self.samples} samples"
+                  for fact, p, (lo, hi) in self._intervals()]
         return "\n".join(lines) if lines else "no change"
+
+    def _intervals(self):
+        return [(f, p, wilson_interval(p, self.samples)) for f, p in self.uncertain]
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -57,6 +70,8 @@ class WorldDiff:
                       for m in self.moved],
             "objects_added": list(self.objects_added),
             "objects_removed": list(self.objects_removed),
+            "uncertain": [{"fact": str(f), "p": round(p, 4), "interval": [round(lo, 4), round(hi, 4)]}
+                          for f, p, (lo, hi) in self._intervals()],
         }
 
 
@@ -78,6 +93,8 @@ def diff_worlds(before: WorldState, after: WorldState, *, translation_threshold:
         moved=tuple(moved),
         objects_added=tuple(n for n in after.all_names() if n not in set(before.all_names())),
         objects_removed=tuple(n for n in before.all_names() if n not in set(after.all_names())),
+        uncertain=tuple(sorted(after.probabilities.items(), key=lambda fp: (-fp[1], fp[0]))),
+        samples=after.samples,
     )
 
 

@@ -25,7 +25,7 @@ Writing one::
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Iterable, Mapping, Sequence
 
 import numpy as np
@@ -170,15 +170,17 @@ def infer_state(
                 failures.append(SIEFailure(name, predicate, str(decl.sie), message))
                 continue
             replaced[(predicate, name, decl.subject)] = facts
-    stale = {
-        f for f in before.facts
-        for (p, name, i) in replaced
-        if f.predicate == p and len(f.args) > i and f.args[i] == name
-    }
+    def decided(f: Fact) -> bool:
+        return any(f.predicate == p and len(f.args) > i and f.args[i] == name for (p, name, i) in replaced)
+
+    stale = {f for f in before.facts if decided(f)}
     new = frozenset().union(*replaced.values()) if replaced else frozenset()
     facts = (before.facts - stale) | new
+    # what was uncertain before stays so unless it was decided again
+    kept = {f: p for f, p in before.probabilities.items() if not decided(f)}
+    world = replace(after.with_facts(facts), probabilities=kept, samples=before.samples if kept else 0)
     return InferenceResult(
-        world=after.with_facts(facts), evaluated=selected,
+        world=world, evaluated=selected,
         added=facts - before.facts, removed=before.facts - facts, failures=tuple(failures))
 
 

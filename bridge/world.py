@@ -10,6 +10,9 @@ File format (YAML)::
     robot: {name: justin, type: demo_arm, pose: {xyz: [0, 0, 0.75]}, joints: {arm_joint1: 0.0, ...}}
     facts: ["(on big_box table)", "(upright big_box)"]
     goal: "(and (on big_box tray))"         # optional, PDDL
+    probabilities:                          # optional: facts whose truth varied over parameter samples
+      samples: 24                           #   (bridge infer --samples); a fact not listed is certain
+      facts: {"(upright big_box)": 0.625, "(on big_box table)": 0.625}
 
 Loading validates everything against the object database; saving writes a temp file and renames it, so a
 world-state file is never half-written.
@@ -26,7 +29,8 @@ from .names import NameMap, build_name_map
 from .odb import ObjectDatabase
 from .values import Fact, Pose
 
-WORLD_KEYS = {"name", "objects", "robot", "facts", "goal"}
+WORLD_KEYS = {"name", "objects", "robot", "facts", "goal", "probabilities"}
+PROBABILITY_KEYS = {"samples", "facts"}
 OBJECT_KEYS = {"type", "pose"}
 ROBOT_KEYS = {"name", "type", "pose", "joints"}
 POSE_KEYS = {"xyz", "rpy", "quat"}
@@ -58,6 +62,12 @@ class WorldState:
     goal: str | None = None
     name: str = "world"
     names: NameMap = field(default_factory=NameMap, compare=False)
+    probabilities: Mapping[Fact, float] = field(default_factory=dict)  # facts that held in only some samples
+    samples: int = 0  # how many parameter samples the probabilities come from (0: none)
+
+    def probability(self, fact: Fact) -> float:
+        """The share of samples in which `fact` held; 1 or 0 for a fact no sample disagreed on."""
+        return self.probabilities.get(fact, 1.0 if fact in self.facts else 0.0)
 
     def all_names(self) -> list[str]:
         """Objects, then the robot: everything a fact may name."""
@@ -173,7 +183,40 @@ def world_from_dict(data: Any, odb: ObjectDatabase, source: str | None = None) -
         fact = Fact(fact.predicate, tuple(a if a in known else names.original(a.lower()) for a in fact.args))
         check_fact(fact, world, odb, source, fld)
         facts.append(fact)
-    return replace(world, facts=frozenset(facts))
+    world = replace(world, facts=frozenset(facts))
+    if data.get("probabilities") is not None:
+        world = _probabilities(data["probabilities"], world, odb, source)
+    return world
+
+
+def _probabilities(body: Any, world: WorldState, odb: ObjectDatabase, source: str | None) -> WorldState:
+    fld = "probabilities"
+    if not isinstance(body, dict):
+        raise WorldStateError("must be a mapping {samples: N, facts: {'(fact)': p}}", source=source, field=fld)
+    bad = set(body) - PROBABILITY_KEYS
+    if bad:
+        raise WorldStateError(f"unknown key {sorted(bad)[0]!r}; valid keys: facts, samples", source=source, field=fld)
+    samples = body.get("samples")
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise WorldStateError(f"must be a whole number >= 1, got {samples!r}", source=source, field=f"{fld}.samples")
+    raw = body.get("facts") or {}
+    if not isinstance(raw, dict):
+        raise WorldStateError("must map facts like '(on box table)' to probabilities", source=source,
+                              field=f"{fld}.facts")
+    known = set(world.all_names())
+    probabilities = {}
+    for text, p in raw.items():
+        where = f"{fld}.facts[{text!r}]"
+        try:
+            fact = Fact.parse(text)
+        except BridgeError as exc:
+            raise WorldStateError(str(exc), source=source, field=where) from None
+        fact = Fact(fact.predicate, tuple(a if a in known else world.names.original(a.lower()) for a in fact.args))
+        check_fact(fact, world, odb, source, where)
+        if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p <= 1.0:
+            raise WorldStateError(f"a probability is a number in [0, 1], got {p!r}", source=source, field=where)
+        probabilities[fact] = float(p)
+    return replace(world, probabilities=probabilities, samples=samples)
 
 
 def _robot(body: Any, odb: ObjectDatabase, source: str | None) -> RobotState:
@@ -223,6 +266,10 @@ def world_to_dict(world: WorldState) -> dict[str, Any]:
     data["facts"] = [str(Fact(f.predicate, tuple(world.names.pddl(a) for a in f.args))) for f in sorted(world.facts)]
     if world.goal:
         data["goal"] = world.goal
+    if world.probabilities:
+        data["probabilities"] = {"samples": world.samples, "facts": {
+            str(Fact(f.predicate, tuple(world.names.pddl(a) for a in f.args))): round(p, 4)
+            for f, p in sorted(world.probabilities.items())}}
     return data
 
 

@@ -24,7 +24,8 @@ def world():
 def test_no_change(world):
     diff = diff_worlds(world, world)
     assert diff.empty and diff.text() == "no change"
-    assert diff.to_json() == {"added": [], "removed": [], "moved": [], "objects_added": [], "objects_removed": []}
+    assert diff.to_json() == {"added": [], "removed": [], "moved": [], "objects_added": [], "objects_removed": [],
+                              "uncertain": []}
 
 
 def test_facts_and_moves(world):

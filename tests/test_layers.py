@@ -12,7 +12,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "bridge"
 # Each top-level module or package of bridge and its layer: a module may import only from its own layer or below.
 LAYERS = {
     "errors": 0,
-    "values": 1, "files": 1, "names": 1, "optim": 1,  # values, I/O, naming and search algorithms: no physics
+    "values": 1, "files": 1, "names": 1, "optim": 1, "probability": 1,  # values, I/O, naming, search: no physics
     "odb": 2,
     "world": 3,
     "recording": 4,
@@ -23,7 +23,7 @@ LAYERS = {
     "params": 9,
     "fit": 10, "diagnosis": 10,
     "prove": 11,
-    "teleop": 12, "enactment": 12,
+    "teleop": 12, "enactment": 12, "uncertainty": 12,
     "commands": 13,
     "cli": 14,
     "__init__": 14,  # the package's re-exports

@@ -100,3 +100,35 @@ def test_pose_helpers():
     flipped = Pose.from_rpy((0, 0, 0), (math.pi, 0, 0))
     assert Pose().rotation_to(flipped) == pytest.approx(math.pi)
     assert Pose.from_matrix(p.matrix()).rotation_to(p) < 1e-9
+
+
+def test_probabilities_round_trip_and_old_files_still_load(odb, tmp_path):
+    """Facts that held in only some parameter samples keep their share beside the facts; a file without them is a
+    world state as before (every fact certain)."""
+    world = load_world_state(DEMO, odb)
+    assert world.probabilities == {} and world.samples == 0
+    text = DEMO.read_text() + 'probabilities:\n  samples: 24\n  facts: {"(upright big_box)": 0.625}\n'
+    path = tmp_path / "uncertain.yaml"
+    path.write_text(text)
+    uncertain = load_world_state(path, odb)
+    assert uncertain.probabilities == {Fact("upright", ("big_box",)): 0.625} and uncertain.samples == 24
+    assert uncertain.probability(Fact("upright", ("big_box",))) == 0.625
+    save_world_state(uncertain, tmp_path / "again.yaml")
+    assert load_world_state(tmp_path / "again.yaml", odb) == uncertain
+
+
+@pytest.mark.parametrize("body, field, words", [
+    ('probabilities: {samples: 0, facts: {}}', "probabilities.samples", ["whole number >= 1"]),
+    ('probabilities: {samples: 4, facts: {"(upright big_box)": 1.5}}', "probabilities.facts", ["number in [0, 1]"]),
+    ('probabilities: {samples: 4, facts: {"(upright ghost)": 0.5}}', "probabilities.facts", ["unknown object 'ghost'"]),
+    ('probabilities: {samples: 4, facts: [1]}', "probabilities.facts", ["must map facts"]),
+    ('probabilities: {samples: 4, shares: {}}', "probabilities", ["unknown key 'shares'"]),
+])
+def test_bad_probabilities_name_the_field(odb, tmp_path, body, field, words):
+    path = tmp_path / "bad.yaml"
+    path.write_text(DEMO.read_text() + body + "\n")
+    with pytest.raises(WorldStateError) as info:
+        load_world_state(path, odb)
+    assert str(path) in str(info.value) and field in str(info.value)
+    for word in words:
+        assert word in str(info.value)

@@ -86,6 +86,7 @@ class Scored:
     held_out_error: PoseError | None = None
     derived: dict[str, float] = field(default_factory=dict)
     evaluations: int = 0
+    model_std: dict[str, float] = field(default_factory=dict)  # 1 sigma of every fitted parameter of the model
 
     @property
     def rms(self) -> float:
@@ -303,7 +304,7 @@ def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) ->
     derived = get_effect(effect).describe(world, odb, target, params)
     return Scored(effect, target, params, {p.name: std[p.name] for p in own}, result.model(), result.space.dim,
                   result.chi2, result.n, error=pose_error_of(result.runs), derived=derived,
-                  evaluations=result.evaluations)
+                  evaluations=result.evaluations, model_std=std)
 
 
 def _score(models: Sequence[Scored], tau: float) -> list[Scored]:

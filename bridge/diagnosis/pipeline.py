@@ -80,7 +80,8 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     if ident.verdict != "none":
         scene_path = save_scene_file(out / SCENE_FILE, ident.winner.model, odb,
                                      {"verdict": ident.verdict, "target": ident.winner.target,
-                                      "recordings": list(ident.train) + list(ident.held_out)})
+                                      "recordings": list(ident.train) + list(ident.held_out)},
+                                     std=ident.winner.model_std)
     data = diagnosis_json(ident, scene_file=scene_path.name if scene_path else None, failures=failures)
     data["seconds"] = round(time.perf_counter() - started, 2)
     figures: list[str] = []
@@ -93,10 +94,14 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     return DiagnosisRun(ident, data, files, after)
 
 
-def save_scene_file(path: Path, model: Model, odb: ObjectDatabase, diagnosis: dict[str, Any]) -> Path:
-    """The diagnosed model as a parameter file of fixed values, each entry labelled with its effect: `bridge
+def save_scene_file(path: Path, model: Model, odb: ObjectDatabase, diagnosis: dict[str, Any],
+                    std: dict[str, float] | None = None) -> Path:
+    """The diagnosed model as a parameter file of fixed values, each entry labelled with its effect and, where the
+    fit measured it, its 1-sigma uncertainty (`std`: what `bridge infer --samples` draws from): `bridge
     infer`/`view`/`demo --scene` replay with it, `bridge fit --scene` fits on top of it, `--params` takes it too."""
-    entries = tuple(Parameter(kind_named(s.kind), s.target, value=s.value, effect=s.effect) for s in model)
+    std = {k: v for k, v in (std or {}).items() if math.isfinite(v)}
+    entries = tuple(Parameter(kind_named(s.kind), s.target, value=s.value, effect=s.effect, std=std.get(s.name))
+                    for s in model)
     header = ("bridge scene file (bridge diagnose): the fitted ordinary parameters and the diagnosed effect, as\n"
               "fixed parameter values; use it with --scene (infer, view, demo, fit) or --params")
     return save_param_file(path, ParameterSet(entries, str(path)), header=header, record={"diagnosis": diagnosis})

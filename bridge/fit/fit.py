@@ -102,10 +102,11 @@ class FitResult:
     executor: str = "serial"
     workers: int = 1
     notes: tuple[str, ...] = field(default=())
+    std: Mapping[str, float] = field(default_factory=dict)  # 1 sigma of each fitted value (see `_uncertainty`)
 
     @property
     def fitted_spec(self) -> ParameterSet:
-        return self.spec.fixed_at(self.values)
+        return self.spec.fixed_at(self.values, self.std)
 
 
 def split_hold_out(names: Sequence[str], hold_out: int | None, seed: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -220,7 +221,21 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
         simulations=state.simulations + len(after_rows), failures=state.failures,
         stop_reason=opt.stop_reason or "", history=opt.history, generation_errors=tuple(state.generation_errors),
         wall_time=wallclock.perf_counter() - started, executor=executor.kind, workers=executor.workers,
-        notes=tuple(dict.fromkeys(n for t in trials for n in t.notes)))
+        notes=tuple(dict.fromkeys(n for t in trials for n in t.notes)), std=_uncertainty(spec, opt))
+
+
+def _uncertainty(spec: ParameterSet, opt) -> dict[str, float]:
+    """1 sigma of each fitted value: from the curvature for Levenberg-Marquardt (cov = (J^T J)^-1 |r|^2 / (n - k),
+    the classic estimate for least squares), else from the spread of the last generation's selected individuals
+    ((p80 - p20) / 1.68 of a normal), mapped back from the unit box. Either is the optimiser's own estimate, not
+    a posterior; `bridge infer --samples` draws from it."""
+    if isinstance(opt, _LeastSquaresRun):
+        return opt.std(spec)
+    last = opt.history[-1]
+    out = {}
+    for p, lo, hi in zip(spec.free, last.p20_x, last.p80_x):
+        out[p.name] = abs(p.from_unit(hi) - p.from_unit(lo)) / 1.683
+    return out
 
 
 def _merge(rows: Sequence[TrialError]) -> PoseError:
@@ -265,9 +280,15 @@ class _LeastSquaresRun(Tracked):
             values = [spec.from_normal(x) for x in xs]
             return [b.vector for b in generation(values, [spec.to_unit(v) for v in values])]
 
-        levenberg_marquardt(residuals, spec.to_normal(spec.start_values()), lower, upper,
-                            max_iterations=self.rule.max_generations)
+        self._found = levenberg_marquardt(residuals, spec.to_normal(spec.start_values()), lower, upper,
+                                          max_iterations=self.rule.max_generations)
         self._stopped = f"Levenberg-Marquardt: {self.rule.max_generations} solver evaluations at most"
+
+    def std(self, spec: ParameterSet) -> dict[str, float]:
+        J, r = self._found.jacobian, self._found.vector
+        s2 = float(r @ r) / max(1, r.size - spec.dim)
+        sd = np.sqrt(np.maximum(np.diag(np.linalg.pinv(J.T @ J)), 0.0) * s2) * spec.steps
+        return {n: float(v) for n, v in zip(spec.names, sd)}
 
     def tell(self, units: Sequence[np.ndarray], errors: Sequence[float]) -> None:
         u = np.array(units, dtype=float)

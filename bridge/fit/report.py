@@ -56,6 +56,7 @@ def fit_json(result: FitResult) -> dict[str, Any]:
     units = [p.kind.unit for p in spec.free]
     data: dict[str, Any] = {
         "params": dict(result.values),
+        "std": {k: float(f"{v:.4g}") for k, v in result.std.items()},
         "start": dict(result.start),
         "units": dict(zip(spec.names, units)),
         "before": _errors(result.before),

@@ -42,7 +42,8 @@ from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl
 
 TYPE_KEYS = {"parent", "pddl_type", "abstract", "fixed", "geometry", "physics", "predicates", "robot", "doc"}
 GEOMETRY_KEYS = {"shape", "size", "mesh", "scale", "convex", "color"}
-PHYSICS_KEYS = {"mass", "density", "com", "inertia", "friction", "dynamic_friction", "hydroelastic_modulus", "dissipation"}
+PHYSICS_KEYS = {"mass", "density", "com", "inertia", "friction", "dynamic_friction", "hydroelastic_modulus", "dissipation",
+                "friction_sd", "mass_sd", "com_sd"}
 PREDICATE_KEYS = {"params", "subject", "sie"}
 ROBOT_KEYS = {"model", "base_link", "joints", "gripper", "home", "kp", "kd"}
 GRIPPER_KEYS = {"joints", "tcp_frame", "open", "closed", "finger_links"}
@@ -215,7 +216,7 @@ class _Reader:
             values.update(mass=_number(body["mass"], src, f"{fld}.mass", positive=True), density=None)
         if "density" in body:
             values.update(density=_number(body["density"], src, f"{fld}.density", positive=True), mass=None)
-        for key in ("friction", "dynamic_friction", "dissipation"):
+        for key in ("friction", "dynamic_friction", "dissipation", "friction_sd", "mass_sd", "com_sd"):
             if key in body:
                 values[key] = _number(body[key], src, f"{fld}.{key}", positive=False)
         if "hydroelastic_modulus" in body:
@@ -339,7 +340,8 @@ def _number(value: Any, src: str, fld: str, *, positive: bool) -> float:
         raise ObjectDatabaseError(f"must be a finite number, got {value!r}", source=src, field=fld)
     if positive and value <= 0:
         raise ObjectDatabaseError(f"must be positive, got {value!r}", source=src, field=fld)
-    if not positive and fld.rsplit(".", 1)[-1] in ("friction", "dynamic_friction", "dissipation") and value < 0:
+    if not positive and fld.rsplit(".", 1)[-1] in ("friction", "dynamic_friction", "dissipation", "friction_sd",
+                                                     "mass_sd", "com_sd") and value < 0:
         raise ObjectDatabaseError(f"must not be negative, got {value!r}", source=src, field=fld)
     return float(value)
 

@@ -46,6 +46,10 @@ class Physics:
     dynamic_friction: float | None = None  # defaults to `friction`
     hydroelastic_modulus: float | None = None  # Pa; None = rigid (or point contact for meshes)
     dissipation: float = 3.0  # Hunt-Crossley dissipation, s/m
+    # how well the values above are known (1 sigma), for sampling when no fit or diagnosis says better
+    friction_sd: float = 0.15  # relative
+    mass_sd: float = 0.05  # relative
+    com_sd: float = 0.003  # m, per horizontal axis of the object's frame
 
     @property
     def mu_dynamic(self) -> float:

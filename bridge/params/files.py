@@ -8,10 +8,12 @@ one format.
       - {kind: mass, target: big_box, bounds: [0.5, 2.0]}                   # start: middle of the bounds
       - {kind: com_x, target: big_box, value: 0.01}                         # fixed: applied, not fitted
       - {kind: obstacle_x, target: table, value: 0.62, effect: hidden_obstacle}   # effect: a label
+      - {kind: friction, target: table, value: 0.47, std: 0.03}            # std: 1 sigma (bridge infer --samples)
 
 An entry is free (`bounds`, optional `start`, optional `scale: linear|log`: how the bounds map onto the unit box)
-or fixed (`value`). Entries apply in file order. `effect` says which effect of a diagnosis an entry belongs to;
-it changes nothing. `fit` and `diagnosis` hold what `bridge fit` / `bridge diagnose` record about the run and
+or fixed (`value`, optionally `std`: its 1-sigma uncertainty, which `bridge infer --samples` draws from; fitted
+files and scene files carry it). Entries apply in file order. `effect` says which effect of a diagnosis an entry
+belongs to; it changes nothing. `fit` and `diagnosis` hold what `bridge fit` / `bridge diagnose` record about the run and
 are ignored when reading. The kinds are `bridge.params.kinds.KINDS`.
 """
 from __future__ import annotations
@@ -25,7 +27,7 @@ from ..files import dump_yaml, read_yaml, write_atomic
 from .kinds import KINDS, Kind
 from .parameters import SPACINGS, Parameter, ParameterSet
 
-ENTRY_KEYS = ("kind", "target", "bounds", "start", "value", "scale", "effect")
+ENTRY_KEYS = ("kind", "target", "bounds", "start", "value", "scale", "effect", "std")
 FILE_KEYS = ("params", "fit", "diagnosis")
 
 
@@ -91,7 +93,15 @@ def _parse_entry(body: Any, source: str, fld: str) -> Parameter:
                                  field=fld)
         value = _number(body["value"], source, f"{fld}.value")
         _check_kind(kind, value, source, f"{fld}.value")
-        return Parameter(kind, target, value=value, spacing=spacing, effect=effect)
+        std = None
+        if body.get("std") is not None:
+            std = _number(body["std"], source, f"{fld}.std")
+            if std < 0:
+                raise ParameterError(f"a standard deviation is >= 0, got {std:g}", source=source, field=f"{fld}.std")
+        return Parameter(kind, target, value=value, spacing=spacing, effect=effect, std=std)
+    if "std" in body:
+        raise ParameterError("'std' is the uncertainty of a fixed 'value'; a fitted entry has bounds instead",
+                             source=source, field=f"{fld}.std")
     if "bounds" not in body:
         raise ParameterError("missing field 'bounds' (a fitted parameter) or 'value' (a fixed one)", source=source,
                              field=fld)
@@ -137,6 +147,8 @@ def entry_dict(p: Parameter) -> dict[str, Any]:
     entry: dict[str, Any] = {"kind": p.kind.name, "target": p.target}
     if not p.free:
         entry["value"] = float(f"{p.value:.10g}")
+        if p.std is not None:
+            entry["std"] = float(f"{p.std:.4g}")
     else:
         entry["bounds"] = [float(b) for b in p.bounds]
         if p.start is not None:

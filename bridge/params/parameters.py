@@ -39,6 +39,7 @@ class Parameter:
     spacing: str = "linear"
     step: float | None = None
     effect: str = ""
+    std: float | None = None  # 1 sigma of a fixed value (a fit's or a diagnosis' estimate): what sampling draws from
 
     @classmethod
     def of(cls, kind: str | Kind, target: str, world: WorldState, odb: ObjectDatabase, *, effect: str = "",
@@ -129,12 +130,16 @@ class ParameterSet:
         it = iter(values)
         return tuple(p.setting() if not p.free else p.setting(float(next(it))) for p in self.entries)
 
-    def fixed_at(self, values: Sequence[float] | Mapping[str, float]) -> "ParameterSet":
-        """The same parameters with the free ones fixed at `values` (a fitted parameter file)."""
+    def fixed_at(self, values: Sequence[float] | Mapping[str, float],
+                 std: Mapping[str, float] | None = None) -> "ParameterSet":
+        """The same parameters with the free ones fixed at `values` (a fitted parameter file), each with its
+        uncertainty from `std` (by name) when given."""
         if isinstance(values, Mapping):
             values = [values[n] for n in self.names]
         it = iter(float(v) for v in values)
-        return replace(self, entries=tuple(p if not p.free else replace(p, value=next(it)) for p in self.entries))
+        std = std or {}
+        return replace(self, entries=tuple(p if not p.free else replace(p, value=next(it), std=std.get(p.name))
+                                           for p in self.entries))
 
     # --- the unit box (evolution strategies) ------------------------------------------------------------------
     def to_unit(self, values: Sequence[float]) -> np.ndarray:

@@ -4,6 +4,12 @@ Object names that are not PDDL identifiers ("Cup 1") are renamed (``cup_1``, see
 ones are listed at the top of the problem as comments, so the file alone maps back::
 
     ; bridge-name cup_1 "Cup 1"
+
+A world state with fact probabilities (`bridge infer --samples`) tells the planner only what is at least
+`min_probability` likely (default 0.9); the facts in between, which an operator or a sensing action should
+settle, are listed in comments and in `uncertain_json`::
+
+    ; bridge-uncertain (upright big_box) p=0.62 [0.42, 0.79] of 24 samples
 """
 from __future__ import annotations
 
@@ -21,9 +27,10 @@ from pddl.logic.terms import Constant, Term
 
 from ..errors import PddlError
 from ..names import NameMap, build_name_map, to_identifier
-from ..odb import ObjectDatabase
-from ..values import Fact
 from ..files import write_atomic
+from ..odb import ObjectDatabase
+from ..probability import DEFAULT_MIN_PROBABILITY, check_min_probability, wilson_interval
+from ..values import Fact
 from ..world import WorldState
 from .domain import DEFAULT_DOMAIN_NAME, build_domain
 from .formulas import FormulaChecker, map_terms
@@ -63,17 +70,42 @@ def pddl_objects(world: WorldState, odb: ObjectDatabase, names: NameMap) -> dict
     return {names.pddl(n): odb.get(world.type_name(n)).pddl_type for n in world.all_names()}
 
 
+# --- what the planner is told ------------------------------------------------------------------
+def believed_facts(world: WorldState, min_probability: float = DEFAULT_MIN_PROBABILITY) -> frozenset[Fact]:
+    """The facts at least `min_probability` likely (every fact of a world without probabilities)."""
+    check_min_probability(min_probability)
+    unsure = {f for f, p in world.probabilities.items() if p < min_probability}
+    return frozenset(world.facts - unsure) | {f for f, p in world.probabilities.items() if p >= min_probability}
+
+
+def uncertain_facts(world: WorldState, min_probability: float = DEFAULT_MIN_PROBABILITY) -> list[tuple[Fact, float]]:
+    """The facts neither believed nor believed false: 1 - min_probability < p < min_probability, likeliest first."""
+    check_min_probability(min_probability)
+    return sorted(((f, p) for f, p in world.probabilities.items() if 1 - min_probability < p < min_probability),
+                  key=lambda fp: (-fp[1], fp[0]))
+
+
+def uncertain_json(world: WorldState, min_probability: float = DEFAULT_MIN_PROBABILITY) -> dict:
+    """The uncertain facts for an operator or a sensing action: fact (world names), probability, 95 % interval."""
+    return {"min_probability": min_probability, "samples": world.samples,
+            "uncertain": [{"fact": str(f), "p": round(p, 4),
+                           "interval": [round(v, 4) for v in wilson_interval(p, world.samples)]}
+                          for f, p in uncertain_facts(world, min_probability)]}
+
+
 # --- writing ------------------------------------------------------------------------------------
 def build_problem(world: WorldState, odb: ObjectDatabase, domain_name: str = DEFAULT_DOMAIN_NAME,
-                  goal: str | None = None) -> Problem:
-    """Typed objects (the robot too), ``:init`` from the facts, ``:goal`` from `goal` or else the world's goal.
+                  goal: str | None = None, min_probability: float = DEFAULT_MIN_PROBABILITY) -> Problem:
+    """Typed objects (the robot too), ``:init`` from the believed facts, ``:goal`` from `goal` or else the world's
+    goal.
 
     A goal is written in PDDL names (``cup_1`` for "Cup 1"). Without any goal the problem's goal is empty.
     """
     names = problem_names(world)
     objects = pddl_objects(world, odb, names)
     constants = {ident: Constant(ident, pddl_type) for ident, pddl_type in objects.items()}
-    init = [Predicate(f.predicate, *(constants[names.pddl(a)] for a in f.args)) for f in sorted(world.facts)]
+    init = [Predicate(f.predicate, *(constants[names.pddl(a)] for a in f.args))
+            for f in sorted(believed_facts(world, min_probability))]
     goal_text = goal if goal is not None else world.goal
     formula = And() if goal_text is None or not goal_text.strip() else ground_goal(goal_text, odb, objects)
     name = to_identifier(world.name or "problem")
@@ -97,22 +129,31 @@ def ground_goal(text: str, odb: ObjectDatabase, objects: Mapping[str, str]) -> F
 
 
 def problem_text(world: WorldState, odb: ObjectDatabase, domain_name: str = DEFAULT_DOMAIN_NAME,
-                 goal: str | None = None) -> str:
-    """The problem file: a header naming the world, one ``; bridge-name`` line per renamed object, the PDDL."""
-    return _render(world, build_problem(world, odb, domain_name, goal))
+                 goal: str | None = None, min_probability: float = DEFAULT_MIN_PROBABILITY) -> str:
+    """The problem file: a header naming the world, one ``; bridge-name`` line per renamed object, one
+    ``; bridge-uncertain`` line per fact left out as uncertain, the PDDL."""
+    return _render(world, build_problem(world, odb, domain_name, goal, min_probability), min_probability)
 
 
-def _render(world: WorldState, problem: Problem) -> str:
+def _render(world: WorldState, problem: Problem, min_probability: float = DEFAULT_MIN_PROBABILITY) -> str:
     header = [f"; bridge problem for world state {json.dumps(world.name)}"]
     header += [f"; bridge-name {ident} {json.dumps(original)}" for original, ident in sorted(problem_names(world).renamed().items())]
+    names = problem_names(world)
+    for fact, p in uncertain_facts(world, min_probability):
+        lo, hi = wilson_interval(p, world.samples)
+        pddl = Fact(fact.predicate, tuple(names.pddl(a) for a in fact.args))
+        header.append(f"; bridge-uncertain {pddl} p={p:.2f} [{lo:.2f}, {hi:.2f}] of {world.samples} samples "
+                      f"(not in :init; below {min_probability:g})")
     return "\n".join(header) + "\n" + problem_to_string(problem) + "\n"
 
 
 def export_pddl(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate],
                 out_dir: str | Path | None = None, *, domain_path: str | Path | None = None,
                 problem_path: str | Path | None = None, domain_name: str | None = None,
-                settings: DomainSettings | None = None, goal: str | None = None) -> tuple[Path, Path]:
-    """Write ``domain.pddl`` and ``problem.pddl`` (into `out_dir`, or to the explicit paths), each atomically.
+                settings: DomainSettings | None = None, goal: str | None = None,
+                min_probability: float = DEFAULT_MIN_PROBABILITY) -> tuple[Path, Path]:
+    """Write ``domain.pddl`` and ``problem.pddl`` (into `out_dir`, or to the explicit paths), each atomically;
+    for a world with fact probabilities also the uncertain facts beside the problem (`uncertain_path`).
 
     Both texts are built and checked before either file is touched.
     """
@@ -121,15 +162,31 @@ def export_pddl(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, 
     domain_path = Path(domain_path) if domain_path is not None else Path(out_dir) / "domain.pddl"  # type: ignore[arg-type]
     problem_path = Path(problem_path) if problem_path is not None else Path(out_dir) / "problem.pddl"  # type: ignore[arg-type]
     domain = build_domain(odb, templates, name=domain_name, settings=settings)
-    problem = build_problem(world, odb, domain.name, goal)
+    problem = build_problem(world, odb, domain.name, goal, min_probability)
     try:
         problem.check(domain)  # the library's own cross-check of types, as a safety net
     except Exception as exc:
         raise PddlError(f"the problem does not fit the domain: {exc}") from None
-    domain_file, problem_file = domain_to_string(domain) + "\n", _render(world, problem)
+    domain_file, problem_file = domain_to_string(domain) + "\n", _render(world, problem, min_probability)
     write_atomic(domain_path, domain_file)
     write_atomic(problem_path, problem_file)
+    write_uncertain(world, problem_path, min_probability)
     return domain_path, problem_path
+
+
+def uncertain_path(problem_path: str | Path) -> Path:
+    """Where the uncertain facts of a problem go: ``problem.pddl`` -> ``problem.uncertain.json``."""
+    return Path(problem_path).with_suffix(".uncertain.json")
+
+
+def write_uncertain(world: WorldState, problem_path: str | Path,
+                    min_probability: float = DEFAULT_MIN_PROBABILITY) -> Path | None:
+    """`uncertain_json` beside the problem, for a world with fact probabilities (else nothing)."""
+    if not world.samples:
+        return None
+    path = uncertain_path(problem_path)
+    write_atomic(path, json.dumps(uncertain_json(world, min_probability), indent=1) + "\n")
+    return path
 
 
 # --- reading ------------------------------------------------------------------------------------

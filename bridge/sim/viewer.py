@@ -6,7 +6,7 @@ object was observed (AprilTags, motion capture) a see-through copy of it stands.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 from pydrake.geometry import Meshcat, Rgba
 
@@ -14,12 +14,14 @@ from ..files import write_atomic
 from ..odb import ObjectDatabase
 from ..recording.observations import ObservedPoses
 from ..recording.telemetry import Telemetry
+from ..values import Pose
 from ..world import WorldState
 from .scene import SceneValues, SimConfig, build_scene, to_drake
 from .simulate import FailurePolicy, ReplayResult, SimOptions, simulate
 from .shapes import drake_shape
 
 GHOST_ALPHA = 0.3
+SPREAD_ALPHA = 0.12
 
 
 def write_replay_html(
@@ -33,9 +35,11 @@ def write_replay_html(
     extras: Sequence = (),
     hooks: Sequence = (),
     config: SimConfig = SimConfig(),
+    spread: Sequence[Mapping[str, Pose]] = (),
 ) -> ReplayResult:
     """Replay with a Meshcat recording attached and save it as one HTML file (a robot that cannot follow its
-    telemetry is shown, not refused: seeing where it got stuck is the point)."""
+    telemetry is shown, not refused: seeing where it got stuck is the point). `spread`: final poses of sampled
+    replays (`bridge view --samples N`), drawn as faint ghosts of the objects that moved in them."""
     meshcat = Meshcat()  # serves on localhost only while we record
     scene = build_scene(world, odb, config, extras=extras, meshcat=meshcat)
     visualizer = scene.diagram.GetSubsystemByName(
@@ -46,6 +50,7 @@ def write_replay_html(
     visualizer.StopRecording()
     if observations is not None:
         _add_ghosts(meshcat, visualizer.get_mutable_recording(), world, odb, observations, result.sim_time)
+    _add_spread(meshcat, world, odb, spread)
     visualizer.PublishRecording()
     write_atomic(out, meshcat.StaticHtml())
     return result
@@ -65,3 +70,17 @@ def _add_ghosts(meshcat: Meshcat, animation, world: WorldState, odb: ObjectDatab
             # dense tracks move with time; sparse (before/after) ones show where the object ended, as in Fig. 5
             pose = track.at(frame / fps) if observations.is_dense else track.final()
             animation.SetTransform(frame, path, to_drake(pose))
+
+
+def _add_spread(meshcat: Meshcat, world: WorldState, odb: ObjectDatabase, spread: Sequence[Mapping[str, Pose]]) -> None:
+    """Each sample's final pose of every object that moved in it, faint, where it stays for the whole replay."""
+    for k, poses in enumerate(spread):
+        for name, pose in poses.items():
+            start = world.objects[name].pose
+            if start.translation_to(pose) < 0.005 and start.rotation_to(pose) < 0.05:
+                continue
+            obj_type = odb.get(world.objects[name].type)
+            color = obj_type.geometry.color if obj_type.geometry else (0.5, 0.5, 0.5, 1.0)
+            path = f"/samples/{k}/{name}"
+            meshcat.SetObject(path, drake_shape(obj_type), Rgba(color[0], color[1], color[2], SPREAD_ALPHA))
+            meshcat.SetTransform(path, to_drake(pose))

@@ -160,3 +160,33 @@ def test_world_file_with_renamed_objects_round_trips(odb, world_of, tmp_path):
     save_world_state(world, tmp_path / "w.yaml")
     assert "(in cup_1 tray_1)" in (tmp_path / "w.yaml").read_text()
     assert load_world_state(tmp_path / "w.yaml", odb).facts == world.facts
+
+
+def test_the_planner_is_told_only_what_is_likely_enough(odb, world_of, templates, tmp_path):
+    """With fact probabilities the problem's :init holds the facts at least `min_probability` likely; the ones in
+    between are listed in comments and beside the problem as JSON (Wilson intervals); the rest count as false."""
+    import json
+    from dataclasses import replace
+
+    from bridge.errors import BridgeError
+    from bridge.planning.problem import believed_facts, uncertain_facts, uncertain_path
+
+    world = world_of(FACTS)
+    upright, on, tipped = Fact("upright", ("big_box",)), Fact("on", ("small_box", "big_box")), Fact("upright", ("Cup 1",))
+    world = replace(world, probabilities={upright: 0.62, on: 0.97, tipped: 0.04, Fact("clear", ("big_box",)): 0.3},
+                    samples=24)
+    believed = believed_facts(world)
+    assert on in believed and upright not in believed and tipped not in believed
+    assert Fact("clear", ("big_box",)) not in believed and Fact("on", ("big_box", "table")) in believed  # certain
+    assert [f for f, _ in uncertain_facts(world)] == [upright, Fact("clear", ("big_box",))]
+    assert believed_facts(world, 0.6) >= {upright, on}
+    text = problem_text(world, odb)
+    assert "; bridge-uncertain (upright big_box) p=0.62" in text and "; bridge-uncertain (upright cup_1)" not in text
+    assert read_problem(text, odb).facts == believed  # the comments do not disturb reading it back
+    _, problem_path = export_pddl(world, odb, templates, tmp_path)
+    listed = json.loads(uncertain_path(problem_path).read_text())
+    assert listed["samples"] == 24 and listed["uncertain"][0]["fact"] == "(upright big_box)"
+    lo, hi = listed["uncertain"][0]["interval"]
+    assert 0.4 < lo < 0.62 < hi < 0.8
+    with pytest.raises(BridgeError, match="minimum probability must be in \\(0.5, 1\\]"):
+        believed_facts(world, 0.5)
