@@ -48,8 +48,15 @@ def _model_args(p: argparse.ArgumentParser) -> None:
                    "fit); with --scene, its values go on top of the scene's")
 
 
+class _Parser(argparse.ArgumentParser):
+    """A refused option is one line naming it, like every other bad input (argparse prints the usage first)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="bridge", description="Keep a robot's symbolic world state true while a person teleoperates it: "
         "replay its telemetry in Drake, infer the facts, write PDDL, fit and diagnose the physics.")
     common = argparse.ArgumentParser(add_help=False)
@@ -57,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     common.add_argument("--templates", default=str(DEFAULT_TEMPLATES), help="folder with domain.yaml and templates/ (default: %(default)s)")
     common.add_argument("--dataset", action="append", metavar="NAME=PATH",
                         help="root of a dataset named in dataset:// mesh paths, e.g. mit-push=../shared/datasets/mit-push")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
 
     def add(name: str) -> argparse.ArgumentParser:
         func, text = COMMANDS[name]
