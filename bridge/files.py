@@ -18,8 +18,33 @@ import yaml
 from .errors import BridgeError
 
 
+class DuplicateKeyError(yaml.constructor.ConstructorError):
+    """A mapping names one key twice: YAML would keep the last silently (a second object of one name in a world
+    state, a type defined twice in one file), so a world other than the one written would be simulated."""
+
+
 class _Yaml12Loader(yaml.SafeLoader):
-    """YAML 1.2 booleans: only true/false. In YAML 1.1 the predicate name `on` would read as True."""
+    """YAML 1.2 booleans: only true/false. In YAML 1.1 the predicate name `on` would read as True. A key given
+    twice in one mapping is an error (`DuplicateKeyError`), not a silent overwrite; merge keys (`<<`) may still
+    be overridden."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        if isinstance(node, yaml.MappingNode):
+            seen: dict[Any, yaml.Node] = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    first = seen.setdefault(key, key_node)
+                except TypeError:  # an unhashable key: the constructor below reports it
+                    continue
+                if first is not key_node:
+                    raise DuplicateKeyError(
+                        "while constructing a mapping", node.start_mark,
+                        f"duplicate key {key!r} (first on line {first.start_mark.line + 1}); the last would win "
+                        "silently", key_node.start_mark)
+        return super().construct_mapping(node, deep=deep)
 
 
 _Yaml12Loader.yaml_implicit_resolvers = {
@@ -31,27 +56,46 @@ _Yaml12Loader.add_implicit_resolver(
 
 
 def load_yaml_text(text: str) -> Any:
+    """The one YAML dialect of bridge (see `_Yaml12Loader`); raises `yaml.YAMLError`."""
     return yaml.load(text, Loader=_Yaml12Loader)
 
 
-def read_yaml(path: str | os.PathLike[str], what: str, error: type[BridgeError] = BridgeError) -> Any:
-    """Parse one YAML file; a missing file or a syntax error is one `error` naming the file (and line)."""
+def read_text_file(path: str | os.PathLike[str], what: str, error: type[BridgeError] = BridgeError) -> str:
+    """The text of a UTF-8 file (a leading byte-order mark dropped); a missing file, a folder, an OS error or a
+    byte that is not UTF-8 is one `error` naming the file (and the byte's offset)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise error(f"{what} not found", source=str(path)) from None
     except IsADirectoryError:
         raise error(f"{what} is a folder, not a file", source=str(path)) from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{what} is not UTF-8 text: byte 0x{exc.object[exc.start]:02x} at offset {exc.start} "
+                    f"({exc.reason})", source=str(path)) from None
     except OSError as exc:
-        raise error(f"cannot read {what}: {exc.strerror}", source=str(path)) from None
+        raise error(f"cannot read {what}: {exc.strerror or exc}", source=str(path)) from None
+
+
+def read_yaml(path: str | os.PathLike[str], what: str, error: type[BridgeError] = BridgeError) -> Any:
+    """Parse one YAML file; a missing file, a byte that is not UTF-8, a syntax error or a key given twice is one
+    `error` naming the file (and line)."""
+    path = Path(path)
+    text = read_text_file(path, what, error)
     try:
         return load_yaml_text(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise error(f"YAML syntax error: {problem}", source=str(path), field=where) from None
+        raise yaml_error(exc, str(path), error) from None
+
+
+def yaml_error(exc: yaml.YAMLError, source: str, error: type[BridgeError] = BridgeError) -> BridgeError:
+    """A PyYAML error as one `error` naming `source`, the line and column, and the problem."""
+    mark = getattr(exc, "problem_mark", None)
+    where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    if isinstance(exc, DuplicateKeyError):
+        return error(problem, source=source, field=where)
+    return error(f"YAML syntax error: {problem}", source=source, field=where)
 
 
 def dump_yaml(data: Any) -> str:

@@ -17,6 +17,7 @@ from pddl.logic.predicates import EqualTo, Predicate
 from pddl.logic.terms import Term, Variable
 
 from ..errors import ActionError, PddlError
+from ..files import read_text_file
 from ..odb import ObjectDatabase
 from ..values import Fact
 from ..world import WorldState
@@ -208,10 +209,7 @@ def read_plan(path_or_text: str | Path) -> tuple[PlanStep, ...]:
     """A plan as planners write it (``sas_plan``): ``(action arg ...)`` lines, ``;`` comments."""
     if _is_path(path_or_text):
         path = Path(path_or_text)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise PddlError(f"cannot read plan: {exc.strerror}", source=str(path)) from None
+        text = read_text_file(path, "plan", PddlError)
         try:
             plan = parse_plan(text)
         except PddlError as exc:

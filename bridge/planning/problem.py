@@ -27,7 +27,7 @@ from pddl.logic.terms import Constant, Term
 
 from ..errors import PddlError
 from ..names import NameMap, build_name_map, to_identifier
-from ..files import write_atomic
+from ..files import read_text_file, write_atomic
 from ..odb import ObjectDatabase
 from ..probability import DEFAULT_MIN_PROBABILITY, check_min_probability, wilson_interval
 from ..values import Fact
@@ -198,12 +198,7 @@ def read_problem(path_or_text: str | Path, odb: ObjectDatabase) -> ProblemFacts:
     if isinstance(path_or_text, Path) or "(" not in str(path_or_text):
         path = Path(path_or_text)
         src: str | None = str(path)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise PddlError("problem file not found", source=src) from None
-        except OSError as exc:
-            raise PddlError(f"cannot read problem file: {exc.strerror}", source=src) from None
+        text = read_text_file(path, "problem file", PddlError)
     else:
         text, src = str(path_or_text), None
     try:

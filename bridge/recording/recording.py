@@ -1,7 +1,7 @@
 """Recording folders: one teleoperation session on disk (world state before it, telemetry, observed poses).
 
-The world state is kept as a path: reading it needs the object database, a layer above this one.
-The format is documented in docs/recordings.md.
+The world state is kept as a path: reading it needs the object database (`recording_world` reads it and checks
+the recording against it). The format is documented in docs/recordings.md.
 """
 from __future__ import annotations
 
@@ -13,10 +13,12 @@ from typing import Any, Mapping
 import yaml
 
 from ..errors import RecordingError
-from ..files import write_atomic
+from ..files import load_yaml_text, read_yaml, write_atomic, yaml_error
+from ..odb import ObjectDatabase
+from ..world import WorldState, load_world_state
 from .forces import ObservedForce, load_force_csv, save_force_csv
 from .observations import ObservedPoses, load_observations_csv, save_observations_csv
-from .telemetry import Telemetry, load_telemetry, read_text, save_telemetry_csv
+from .telemetry import Telemetry, load_telemetry, read_text, save_telemetry_csv, validate_telemetry
 
 RECORDING_FILE = "recording.yaml"
 WORLD_FILE = "world.yaml"
@@ -83,6 +85,23 @@ def load_recording(folder: str | os.PathLike[str]) -> Recording:
                      telemetry=telemetry, observations=observations, metadata=metadata, force=force)
 
 
+def recording_world(recording: Recording, odb: ObjectDatabase) -> WorldState:
+    """The recording's world state before, with the recording checked against it before anything is simulated:
+    every observed object is in the world, and the telemetry drives the world's robot (no joint it lacks, none it
+    needs missing, every position within the robot model's joint limits)."""
+    world = load_world_state(recording.world_path, odb)
+    if recording.observations is not None:
+        unknown = [name for name in recording.observations.objects if name not in world.objects]
+        if unknown:
+            raise RecordingError(f"observed object {unknown[0]!r} is not in {recording.world_path}; objects: "
+                                 f"{', '.join(world.objects)}", source=recording.observations.source,
+                                 field=f"object {unknown[0]!r}")
+    if world.robot is not None:
+        spec = odb.get(world.robot.type).robot
+        validate_telemetry(recording.telemetry, spec.joints, limits=spec.limits, model=spec.model.name)
+    return world
+
+
 def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str], telemetry: Telemetry,
                    observations: ObservedPoses | None = None, metadata: Mapping[str, Any] | None = None, *,
                    force: ObservedForce | None = None, overwrite: bool = False) -> Recording:
@@ -127,12 +146,7 @@ def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str]
 def _load_metadata(path: Path) -> dict[str, Any]:
     if not path.exists():
         return {}
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8-sig"))
-    except (OSError, UnicodeDecodeError) as err:
-        raise RecordingError(f"cannot read recording metadata: {err}", source=str(path)) from None
-    except yaml.YAMLError as err:
-        raise RecordingError(f"not valid YAML: {err}", source=str(path)) from None
+    data = read_yaml(path, "recording metadata", RecordingError)
     if data is None:
         data = {}
     if not isinstance(data, dict):
@@ -190,9 +204,9 @@ def _world_text(world: str | os.PathLike[str]) -> str:
     else:
         raise RecordingError(f"world must be YAML text or a path, got {type(world).__name__}")
     try:
-        data = yaml.safe_load(text)
+        data = load_yaml_text(text)
     except yaml.YAMLError as err:
-        raise RecordingError(f"world state is not valid YAML: {err}", source=src) from None
+        raise yaml_error(err, src, RecordingError) from None
     if not isinstance(data, dict):
         raise RecordingError("world state must be a YAML mapping (pass a pathlib.Path to copy a file)", source=src)
     return text

@@ -69,7 +69,7 @@ def test_save_copies_a_world_file_and_refuses_a_full_folder(tmp_path):
     "kwargs, fragments",
     [
         (dict(world="worlds/before.yaml"), ["world argument", "YAML mapping", "pathlib.Path"]),
-        (dict(world="a: [1"), ["world argument", "not valid YAML"]),
+        (dict(world="a: [1"), ["world argument", "YAML syntax error"]),
         (dict(metadata={"telemetry": "x.csv"}), ["telemetry", "sets 'telemetry' itself"]),
         (dict(metadata={"colour": "red"}), ["colour", "unknown field", "name, robot, telemetry"]),
         (dict(metadata={"robot": 3}), ["robot", "must be text"]),
@@ -134,7 +134,7 @@ def test_named_files_and_a_ros2_bag_folder(tmp_path):
         ({"world.yaml": WORLD, "telemetry.csv": CSV, "telemetry.bag": "x"}, ["several telemetry files",
                                                                             "telemetry.csv, telemetry.bag"]),
         ({"world.yaml": WORLD, "telemetry.csv": CSV, "recording.yaml": "name: [a\n"},
-         ["recording.yaml", "not valid YAML", "line 1"]),
+         ["recording.yaml", "YAML syntax error", "line 2, column 1"]),
         ({"world.yaml": WORLD, "telemetry.csv": CSV, "recording.yaml": "- a\n"}, ["recording.yaml", "mapping"]),
         ({"world.yaml": WORLD, "telemetry.csv": CSV, "recording.yaml": "robt: panda\n"},
          ["recording.yaml: robt: unknown field", "name, robot, telemetry, telemetry_topic"]),
