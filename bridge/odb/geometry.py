@@ -1,23 +1,58 @@
 """Geometric queries on object types that SIEs need (extent along a direction, footprint), without Drake."""
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from ..errors import ObjectDatabaseError
 from ..values import Pose
 from .types import Geometry
 
 
 @lru_cache(maxsize=64)
 def mesh_vertices(path: Path, scale: float) -> np.ndarray:
-    """Vertices of an OBJ file (only 'v' lines are needed for extents)."""
-    rows = []
-    with open(path, encoding="utf-8", errors="replace") as f:
-        for line in f:
-            if line.startswith("v "):
-                rows.append([float(v) for v in line.split()[1:4]])
+    """Vertices of an OBJ file (only 'v' lines are needed for extents). A file that is no OBJ mesh (random
+    bytes, other text, no faces, a vertex that is not three finite numbers, a face naming a missing vertex) is an
+    `ObjectDatabaseError` naming it: Drake would fail on it later without saying which file."""
+    src = str(path)
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise ObjectDatabaseError(f"cannot read mesh: {exc.strerror or exc}", source=src) from None
+    except UnicodeDecodeError as exc:
+        raise ObjectDatabaseError(f"not an OBJ mesh: byte 0x{exc.object[exc.start]:02x} at offset {exc.start} is "
+                                  "not text", source=src) from None
+    rows: list[list[float]] = []
+    faces: list[tuple[int, list[str]]] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        words = line.split()
+        if not words or words[0] != "v" and words[0] != "f":
+            continue
+        if words[0] == "f":
+            faces.append((number, words[1:]))
+            continue
+        try:
+            vertex = [float(v) for v in words[1:4]]
+        except ValueError:
+            vertex = []
+        if len(vertex) != 3 or not all(math.isfinite(v) for v in vertex):
+            raise ObjectDatabaseError(f"not an OBJ mesh: {line.strip()[:40]!r} is not a vertex 'v x y z' of three "
+                                      "finite numbers", source=src, field=f"line {number}")
+        rows.append(vertex)
+    if len(rows) < 3 or not faces:
+        raise ObjectDatabaseError(f"not an OBJ mesh: {len(rows)} vertex line(s) ('v x y z') and {len(faces)} face "
+                                  "line(s) ('f i j k'); a mesh needs at least 3 and 1", source=src)
+    for number, corners in faces:
+        try:
+            index = [int(c.split("/")[0]) for c in corners]
+        except ValueError:
+            index = []
+        if len(index) < 3 or not all(1 <= i <= len(rows) or -len(rows) <= i <= -1 for i in index):
+            raise ObjectDatabaseError(f"not an OBJ mesh: face {' '.join(corners)[:40]!r} does not name 3 or more of "
+                                      f"the {len(rows)} vertices", source=src, field=f"line {number}")
     return np.asarray(rows, dtype=float) * scale
 
 

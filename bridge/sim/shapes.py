@@ -57,7 +57,13 @@ def _compute(obj_type: ObjectType) -> MassProperties:
     where = dict(source=str(obj_type.source), field=f"{obj_type.name}.physics")
     if obj_type.geometry is None:
         raise ObjectDatabaseError("mass properties need a geometry", **where)
-    unit = CalcSpatialInertia(drake_shape(obj_type), 1.0)  # mass == volume at unit density
+    try:
+        unit = CalcSpatialInertia(drake_shape(obj_type), 1.0)  # mass == volume at unit density
+    except RuntimeError as exc:  # Drake's own reading of a mesh: say which file
+        mesh = obj_type.geometry.mesh
+        raise ObjectDatabaseError(f"Drake cannot compute the volume of {f'mesh {mesh}' if mesh else 'the shape'}: "
+                                  f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
+                                  source=str(obj_type.source), field=f"{obj_type.name}.geometry") from None
     volume = unit.get_mass()
     if volume <= 0:
         raise ObjectDatabaseError("geometry has no volume (is the mesh closed?)", **where)

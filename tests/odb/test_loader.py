@@ -370,7 +370,7 @@ def test_known_dataset_resolves_the_mesh(tmp_path):
     root = write_db(tmp_path / "db", MESHES)
     alpha, beta = tmp_path / "alpha", tmp_path / "beta"
     (alpha / "obj").mkdir(parents=True)
-    (alpha / "obj" / "puck.obj").write_text("v 0 0 0\n")
+    (alpha / "obj" / "puck.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     types, _ = read_types(root, {"alpha": alpha})
     assert types["puck"].geometry.mesh == alpha / "obj" / "puck.obj" and types["puck"].geometry.unresolved is None
     assert types["tile"].geometry.mesh is None  # beta-set still unknown
