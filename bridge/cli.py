@@ -3,6 +3,7 @@ lives here."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Callable, Sequence
@@ -28,13 +29,44 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
 }
 
 
+# --- option values: a value outside its range is argparse's one line naming the option ---------------------------
+def _number(text: str, kind: type, low: float, strict: bool, what: str) -> float | int:
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
+    if not math.isfinite(value) or value < low or (strict and value == low):
+        raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    return _number(text, float, 0.0, True, "a finite number > 0")
+
+
+def finite_nonneg_float(text: str) -> float:
+    return _number(text, float, 0.0, False, "a finite number >= 0")
+
+
+def nonneg_int(text: str) -> int:
+    return _number(text, int, 0, False, "a whole number >= 0")
+
+
+def positive_int(text: str) -> int:
+    return _number(text, int, 1, False, "a whole number >= 1")
+
+
+def popsize_int(text: str) -> int:
+    return _number(text, int, 2, False, "a whole number >= 2 (an evolution needs two candidates to compare)")
+
+
 def _sample_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--samples", type=int, default=0, metavar="N", help="also replay N times with parameters drawn "
+    p.add_argument("--samples", type=nonneg_int, default=0, metavar="N", help="also replay N times with parameters drawn "
                    "from the uncertainty of --scene/--params (their std) or the object database's ranges")
-    p.add_argument("--seed", type=int, default=0, help="seeds the drawn parameters (default %(default)s)")
+    p.add_argument("--seed", type=nonneg_int, default=0, help="seeds the drawn parameters (default %(default)s)")
     p.add_argument("--executor", choices=("process", "dask", "serial"), default="process",
                    help="where the samples run (default: %(default)s)")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per CPU)")
+    p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default: one per CPU)")
 
 
 def _probability_arg(p: argparse.ArgumentParser) -> None:
@@ -82,8 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("a", help="world state before")
     p.add_argument("b", help="world state after, or a PDDL problem (.pddl)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
-    p.add_argument("--translation", type=float, default=0.01, help="moved when translated more than this (m, default %(default)s)")
-    p.add_argument("--rotation", type=float, default=5.0, help="moved when turned more than this (deg, default %(default)s)")
+    p.add_argument("--translation", type=finite_nonneg_float, default=0.01, help="moved when translated more than this (m, default %(default)s)")
+    p.add_argument("--rotation", type=finite_nonneg_float, default=5.0, help="moved when turned more than this (deg, default %(default)s)")
     p = add("apply")
     p.add_argument("world", help="world-state YAML")
     p.add_argument("action", help="action template name, e.g. pick")
@@ -94,7 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--world-out", default=None, help="inferred world state (default: RECORDING/world_after.yaml)")
     p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: beside --world-out)")
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
-    p.add_argument("--event-period", type=float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
+    p.add_argument("--event-period", type=positive_float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
     _model_args(p)
     _sample_args(p)
     _probability_arg(p)
@@ -123,34 +155,34 @@ def build_parser() -> argparse.ArgumentParser:
                    "from bridge diagnose: its extra geometry, corrections and values stay fixed)")
     p.add_argument("--optimizer", choices=("cmaes", "es", "lm"), default="cmaes", help="cmaes, the paper's es, or "
                    "lm (Levenberg-Marquardt on the same error; default: %(default)s)")
-    p.add_argument("--generations", type=int, default=30, help="at most this many (default %(default)s; stops "
+    p.add_argument("--generations", type=positive_int, default=30, help="at most this many (default %(default)s; stops "
                    "earlier when the best error stops improving)")
-    p.add_argument("--popsize", type=int, default=None, help="candidates per generation (default: cmaes 4 + 3 ln D, "
+    p.add_argument("--popsize", type=popsize_int, default=None, help="candidates per generation (default: cmaes 4 + 3 ln D, "
                    "es 10 D as in the paper)")
-    p.add_argument("--seed", type=int, default=0, help="seeds the optimiser and the hold-out split (default %(default)s)")
+    p.add_argument("--seed", type=nonneg_int, default=0, help="seeds the optimiser and the hold-out split (default %(default)s)")
     p.add_argument("--executor", choices=("process", "dask", "serial"), default="process", help="default: %(default)s")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per CPU)")
+    p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default: one per CPU)")
     p.add_argument("--scheduler", default=None, metavar="ADDR", help="a dask scheduler's address (with --executor dask)")
-    p.add_argument("--hold-out", type=int, default=None, metavar="N", help="trials kept out of the fit to test it "
+    p.add_argument("--hold-out", type=nonneg_int, default=None, metavar="N", help="trials kept out of the fit to test it "
                    "(default: 25%% when there are 4 or more)")
     p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.json")
-    p.add_argument("--max-duration", type=float, default=None, metavar="S", help="use only the first S seconds of "
+    p.add_argument("--max-duration", type=positive_float, default=None, metavar="S", help="use only the first S seconds of "
                    "each MIT push")
     p = add("diagnose")
     p.add_argument("recordings", nargs="+", metavar="RECORDING",
                    help="recording folders (with observed.csv), MIT .h5 files, or folders of .h5 files")
     p.add_argument("--out", required=True, metavar="DIR", help="folder for diagnosis.json, report.md, scene.yaml, plots")
-    p.add_argument("--hold-out", type=int, default=None, metavar="N", help="recordings kept out of the fit to check "
+    p.add_argument("--hold-out", type=nonneg_int, default=None, metavar="N", help="recordings kept out of the fit to check "
                    "it (default: a quarter when there are 4 or more)")
     p.add_argument("--effects", default=None, metavar="A,B", help="only these effects of the catalog (default: all)")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: up to 2)")
-    p.add_argument("--max-duration", type=float, default=None, metavar="S", help="use only the first S seconds of "
+    p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default: up to 2)")
+    p.add_argument("--max-duration", type=positive_float, default=None, metavar="S", help="use only the first S seconds of "
                    "each MIT push")
     p = add("prove")
     p.add_argument("--size", choices=("small", "full"), default="small", help="small: one case per effect (CI); "
                    "full: three magnitudes, two seeds (default: %(default)s)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder for the generated recordings and proof.json")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: up to 2)")
+    p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default: up to 2)")
     return parser
 
 

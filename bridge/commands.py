@@ -140,15 +140,17 @@ def _rollout(recording, odb, args):
     """A recording's rollout under the diagnosed scene file (--scene: corrected poses, extra geometry, values,
     clock), then a fitted parameter file (--params) on top; both are parameter files, every target checked
     against the recording's world."""
-    from .params import apply_model, load_param_file, replay_model
+    from .params import apply_model, check_values, load_param_file, replay_model
+    from .recording.recording import recording_world
     from .rollout import Rollout
-    from .world import load_world_state
 
-    rollout = Rollout(load_world_state(recording.world_path, odb), recording.telemetry, name=recording.name)
+    rollout = recorded = Rollout(recording_world(recording, odb), recording.telemetry, name=recording.name)
     for option in ("scene", "params"):
         path = getattr(args, option, None)
         if path:
-            rollout = apply_model(replay_model(load_param_file(path)), rollout, odb, source=path)
+            parameters = load_param_file(path)
+            check_values(parameters, [recorded], odb)  # against the recording, before anything is simulated
+            rollout = apply_model(replay_model(parameters), rollout, odb, source=path)
     return rollout
 
 
@@ -288,17 +290,22 @@ def fit(args) -> int:
     from .fit.evaluate import default_spec
     from .fit.fit import fit_parameters, result_summary
     from .fit.report import table1, write_report
-    from .params import apply_model, load_param_file, replay_model
+    from .params import apply_model, check_targets, check_values, load_param_file, replay_model
     from .rollout import Rollout, load_trials, make_executor
 
     odb = _odb(args)
     trials = load_trials(args.recordings, odb, max_duration=args.max_duration)
+    recorded = [Rollout(t.world, t.telemetry, name=t.name) for t in trials]
     if args.scene:  # fit on top of the model bridge diagnose found: its settings start every replay
-        base = replay_model(load_param_file(args.scene))
+        scene = load_param_file(args.scene)
+        base = replay_model(scene)
+        check_values(scene, recorded, odb)
         for t in trials:  # every target must name something in every recording
             apply_model(base, Rollout(t.world, t.telemetry), odb, source=args.scene)
         trials = [replace(t, base=base) for t in trials]
     spec = load_param_file(args.params) if args.params else default_spec(trials, odb)
+    check_targets(spec, [t.world for t in trials], odb)  # refused before anything is printed
+    check_values(spec, recorded, odb)
     out = Path(args.out)
     print(f"bridge fit: {len(trials)} trial(s); free parameters: {', '.join(spec.names) or 'none'}", file=sys.stderr)
     with make_executor(args.executor, odb, workers=args.workers, scheduler=args.scheduler) as executor:
@@ -322,7 +329,7 @@ def diagnose(args) -> int:
     from .diagnosis.pipeline import diagnose_paths, summary_text
 
     run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
-                         effects=args.effects.split(",") if args.effects else None, max_duration=args.max_duration)
+                         effects=[e.strip() for e in args.effects.split(",")] if args.effects else None, max_duration=args.max_duration)
     print(summary_text(run))
     print(f"wrote {', '.join(str(f) for f in run.files.values())}")
     return 0

@@ -12,11 +12,11 @@ from typing import Callable, Mapping, TextIO
 
 from .inference import InferenceResult, infer_state
 from .odb import ObjectDatabase
-from .recording.recording import Recording
+from .recording.recording import Recording, recording_world
 from .rollout.rollout import Rollout, run_rollout
 from .sim.simulate import MOVED_ROTATION, MOVED_TRANSLATION, ReplayResult, SimOptions
 from .values import Contact, Pose
-from .world import WorldState, load_world_state
+from .world import WorldState
 
 
 @dataclass(frozen=True)
@@ -79,7 +79,7 @@ def run_session(rollout: Rollout, odb: ObjectDatabase, *, options: SimOptions = 
 
 def infer_recording(recording: Recording, odb: ObjectDatabase, *, config=None, **kwargs) -> SessionResult:
     """`run_session` on a recording folder (its world state before, its telemetry; `config` a `SimConfig`)."""
-    rollout = Rollout(load_world_state(recording.world_path, odb), recording.telemetry, name=recording.name)
+    rollout = Rollout(recording_world(recording, odb), recording.telemetry, name=recording.name)
     if config is not None:
         rollout = replace(rollout, config=config)
     return run_session(rollout, odb, **kwargs)

@@ -19,6 +19,7 @@ world-state file is never half-written.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
@@ -27,6 +28,7 @@ from .errors import BridgeError, WorldStateError
 from .files import dump_yaml, read_yaml, write_atomic
 from .names import NameMap, build_name_map
 from .odb import ObjectDatabase
+from .odb.ranges import joint_problem
 from .values import Fact, Pose
 
 WORLD_KEYS = {"name", "objects", "robot", "facts", "goal", "probabilities"}
@@ -234,11 +236,15 @@ def _robot(body: Any, odb: ObjectDatabase, source: str | None) -> RobotState:
     if not isinstance(joints, dict):
         raise WorldStateError("must map joint names to positions", source=source, field="robot.joints")
     positions = spec.home_positions()
+    limits = spec.limits
     for joint, value in joints.items():
         if joint not in spec.joints:
             raise WorldStateError(f"robot type {type_name!r} has no joint {joint!r}; joints: {', '.join(spec.joints)}", source=source, field=f"robot.joints.{joint}")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise WorldStateError(f"must be a finite number, got {value!r}", source=source, field=f"robot.joints.{joint}")
+        problem = joint_problem(float(value), limits.get(joint, (-math.inf, math.inf)), joint, spec.model.name)
+        if problem:  # the robot cannot be there: a wrong unit (degrees) or a wrong joint
+            raise WorldStateError(problem, source=source, field=f"robot.joints.{joint}")
         positions[joint] = float(value)
     name = body.get("name", "robot")
     if not isinstance(name, str) or not name:

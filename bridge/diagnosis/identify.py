@@ -54,6 +54,12 @@ class Options:
     max_iterations: int = 6  # per fit: solver evaluations (lm) or generations (es, cmaes)
     optimizer: str = "lm"  # of the full fits (bridge.optim.NAMES); screening always takes one Gauss-Newton step
 
+    def __post_init__(self) -> None:
+        """An unknown effect would be ignored, and the diagnosis would answer another question than asked."""
+        for name in self.effects or ():
+            if name not in EFFECTS:
+                raise DiagnosisError(f"unknown effect {name!r}; effects: {', '.join(EFFECTS)}", field="effects")
+
 
 @dataclass(frozen=True, eq=False)
 class Candidate:

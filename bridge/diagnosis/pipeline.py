@@ -128,9 +128,9 @@ def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | 
 
     # MIT pushes at their full motion-capture rate: the noise is estimated from every sample, the residual is
     # compared at RESIDUAL_RATE
+    options = Options(effects=tuple(effects) if effects else None)  # checked before any recording is read
     trials = load_trials(paths, odb, max_duration=max_duration, observation_rate=250.0)
     log = None if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-    options = Options(effects=tuple(effects) if effects else None)
     return run_diagnosis(trials, odb, out, held_out=held_out, workers=workers, options=options, log=log)
 
 

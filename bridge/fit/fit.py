@@ -26,9 +26,10 @@ from ..optim import NAMES, GenerationRecord, make_optimizer, restore_optimizer
 from ..optim.base import Progress as OptimizerProgress
 from ..optim.base import StopRule, Tracked
 from ..optim.lm import levenberg_marquardt
-from ..params import ParameterSet, check_targets
+from ..params import ParameterSet, check_targets, check_values
 from ..rollout.compare import DEFAULT_C, PoseError
 from ..rollout.executors import Executor, make_executor
+from ..rollout.rollout import Rollout
 from ..rollout.trials import Trial
 from .evaluate import Evaluation, TrialError, evaluate
 
@@ -154,6 +155,7 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
     if not spec.free:
         raise FitError("the parameter file has no free parameter (entries with bounds)", source=spec.source)
     check_targets(spec, [t.world for t in trials], odb)
+    check_values(spec, [Rollout(t.world, t.telemetry, name=t.name) for t in trials], odb)
     by_name = {t.name: t for t in trials}
     if len(by_name) != len(trials):
         raise FitError("trial names must be unique (load_trials makes them so)")

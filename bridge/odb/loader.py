@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import importlib.util
+import math
 import os
 import sys
 import types as pytypes
@@ -38,6 +39,8 @@ import yaml
 from ..errors import ObjectDatabaseError
 from ..files import load_yaml_text, read_yaml
 from ..values import is_identifier
+from .geometry import mesh_vertices
+from .ranges import RANGES, joint_problem
 from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl, RobotSpec, SIERef
 
 TYPE_KEYS = {"parent", "pddl_type", "abstract", "fixed", "geometry", "physics", "predicates", "robot", "doc"}
@@ -202,6 +205,10 @@ class _Reader:
             path = (raw.source.parent / value).resolve()
         if not path.is_file():
             raise ObjectDatabaseError(f"mesh file {path} not found", source=src, field=fld)
+        try:
+            mesh_vertices(path, 1.0)  # read now: a file that is no OBJ mesh is named here, not by Drake later
+        except ObjectDatabaseError as exc:
+            raise ObjectDatabaseError(f"mesh file {exc}", source=src, field=fld) from None
         return path, None
 
     def physics(self, body: Any, base: Physics, raw: _RawType) -> Physics:
@@ -303,30 +310,60 @@ class _Reader:
                 _number(g.get("open", 0.04), src, f"{gfld}.open", positive=False),
                 _number(g.get("closed", 0.0), src, f"{gfld}.closed", positive=False),
                 tuple(g.get("finger_links") or ()))
-        joint_types = _joint_types(model_path, src, f"{fld}.model")
-        missing = [j for j in joints if j not in joint_types]
+        model_joints = _model_joints(model_path, src, f"{fld}.model")
+        missing = [j for j in joints if j not in model_joints]
         if missing:
             raise ObjectDatabaseError(f"robot model {model_path.name} has no joint {missing[0]!r}; its joints: "
-                                      f"{', '.join(joint_types)}", source=src, field=f"{fld}.joints")
+                                      f"{', '.join(model_joints)}", source=src, field=f"{fld}.joints")
         home = body.get("home") or {}
         if not isinstance(home, dict) or any(j not in joints for j in home):
             raise ObjectDatabaseError("home must map the robot's joints to positions", source=src, field=f"{fld}.home")
+        home_positions = tuple((j, _number(v, src, f"{fld}.home.{j}", positive=False)) for j, v in home.items())
+        for j, v in home_positions:
+            problem = joint_problem(v, model_joints[j][1:], j, model_path.name)
+            if problem:
+                raise ObjectDatabaseError(problem, source=src, field=f"{fld}.home.{j}")
         return RobotSpec(
             model=model_path, base_link=str(body.get("base_link", "base")), joints=tuple(joints), gripper=gripper,
-            home=tuple((j, _number(v, src, f"{fld}.home.{j}", positive=False)) for j, v in home.items()),
+            home=home_positions,
             kp=_number(body.get("kp", 400.0), src, f"{fld}.kp", positive=True),
             kd=_number(body.get("kd", 40.0), src, f"{fld}.kd", positive=True),
-            joint_types=tuple((j, joint_types[j]) for j in joints))
+            joint_types=tuple((j, model_joints[j][0]) for j in joints),
+            joint_limits=tuple((j, *model_joints[j][1:]) for j in joints))
 
 
-def _joint_types(model: Path, src: str, fld: str) -> dict[str, str]:
-    """Joint name -> type ('prismatic', 'revolute', ...) read from the SDF/URDF's XML: what the diagnosis needs to
-    know of a joint (a calibration offset in metres or radians) without building a simulation."""
+def _model_joints(model: Path, src: str, fld: str) -> dict[str, tuple[str, float, float]]:
+    """Joint name -> (type, lower, upper) read from the SDF/URDF's XML, without building a simulation: what the
+    diagnosis needs to know of a joint (a calibration offset in metres or radians) and what positions a world
+    state or a recording may give it. Limits the model leaves out (a continuous joint) are infinite."""
     try:
         root = ElementTree.parse(model).getroot()
     except (ElementTree.ParseError, OSError) as exc:
         raise ObjectDatabaseError(f"cannot read robot model {model}: {exc}", source=src, field=fld) from None
-    return {j.get("name"): j.get("type") for j in root.iter("joint") if j.get("name") and j.get("type")}
+    joints = {}
+    for j in root.iter("joint"):
+        name, kind = j.get("name"), j.get("type")
+        if not name or not kind:
+            continue
+        lo, hi = _limit(j, "lower", -math.inf), _limit(j, "upper", math.inf)
+        if kind == "continuous" or not lo <= hi:
+            lo, hi = -math.inf, math.inf
+        joints[name] = (kind, lo, hi)
+    return joints
+
+
+def _limit(joint: ElementTree.Element, which: str, default: float) -> float:
+    """A joint's `which` limit: SDF ``<axis><limit><lower>``, URDF ``<limit lower=...>``; `default` when absent,
+    unreadable or beyond 1e15 (SDF's "unlimited")."""
+    text = joint.findtext(f"axis/limit/{which}")
+    if text is None:
+        limit = joint.find("limit")
+        text = limit.get(which) if limit is not None else None
+    try:
+        value = float(text) if text is not None else default
+    except ValueError:
+        return default
+    return value if math.isfinite(value) and abs(value) < 1e15 else default
 
 
 def _no_unknown(body: Mapping[str, Any], valid: set[str], src: str, fld: str) -> None:
@@ -340,9 +377,14 @@ def _number(value: Any, src: str, fld: str, *, positive: bool) -> float:
         raise ObjectDatabaseError(f"must be a finite number, got {value!r}", source=src, field=fld)
     if positive and value <= 0:
         raise ObjectDatabaseError(f"must be positive, got {value!r}", source=src, field=fld)
-    if not positive and fld.rsplit(".", 1)[-1] in ("friction", "dynamic_friction", "dissipation", "friction_sd",
-                                                     "mass_sd", "com_sd") and value < 0:
+    key = fld.rsplit(".", 1)[-1]
+    if not positive and key in ("friction", "dynamic_friction", "dissipation", "friction_sd", "mass_sd",
+                                "com_sd") and value < 0:
         raise ObjectDatabaseError(f"must not be negative, got {value!r}", source=src, field=fld)
+    if ".physics." in fld and key in RANGES:
+        problem = RANGES[key].problem(float(value), key)
+        if problem:
+            raise ObjectDatabaseError(problem, source=src, field=fld)
     return float(value)
 
 

@@ -105,10 +105,16 @@ class RobotSpec:
     kp: float = 400.0
     kd: float = 40.0
     joint_types: tuple[tuple[str, str], ...] = ()  # joint -> 'prismatic' | 'revolute' | ..., from the model file
+    joint_limits: tuple[tuple[str, float, float], ...] = ()  # joint, lower, upper (rad or m), from the model file
 
     @property
     def joint_type(self) -> dict[str, str]:
         return dict(self.joint_types)
+
+    @property
+    def limits(self) -> dict[str, tuple[float, float]]:
+        """Each joint's position limits (-inf, inf where the model gives none)."""
+        return {j: (lo, hi) for j, lo, hi in self.joint_limits}
 
     def home_positions(self) -> dict[str, float]:
         base = {j: 0.0 for j in self.joints}

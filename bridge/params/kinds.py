@@ -9,9 +9,15 @@ and height) belong to a `Family`: their values are collected and the family buil
 the missing ones at their null values.
 
 Besides `apply`, a kind says what a search needs to start from the world model: its `null` value (what the
-world model has: no change), a physical `bounds`, a typical `step` (the unit of normalised coordinates and the
-finite-difference step) and, where it has one, the departure from null below which it makes no difference
-worth reporting (`negligible`).
+world model has: no change), the `bounds` a search explores, a typical `step` (the unit of normalised coordinates
+and the finite-difference step) and, where it has one, the departure from null below which it makes no
+difference worth reporting (`negligible`).
+
+Apart from those, a kind says which values are possible at all, to refuse a value a user gives (a parameter or
+scene file) before it is simulated into a wrong world state: `physical`, a range checked where a file is read
+(`check_value`), and `check_on`, what a value must satisfy in one recording (a latency well inside the telemetry,
+a centre of mass inside the body, a mass of the order of the object database's). The bounds of a search lie
+inside both; docs/fit.md lists the ranges and why.
 
 `KINDS` is the registry, spelled out at the bottom of this file; parameter files name kinds by `name`.
 """
@@ -25,7 +31,8 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import ParameterError
 from ..odb import ObjectDatabase
-from ..odb.geometry import z_range
+from ..odb.geometry import support, z_range
+from ..odb.ranges import DISSIPATION, FRICTION, HYDROELASTIC_MODULUS, MASS, PhysicalRange
 from ..rollout.rollout import Rollout
 from ..sim.extras import SurfacePatch, WeldedShape
 from ..sim.shapes import mass_properties
@@ -37,6 +44,10 @@ TYPE_PREFIX = "type:"
 G = 9.81
 OBSTACLE_RADIUS = 0.015  # m: the post `obstacle_x`/`obstacle_y` place
 PATCH_RAISED = 1.0e-6  # m: the sheet carries what stands on it (objects sink ~0.6 um), its edge is no step
+ANY = PhysicalRange(-math.inf, math.inf, why="any finite number")
+MASS_RATIO = 100.0  # a mass more than this many times the object database's (or less than its share) is another object
+FORCE_WEIGHTS = 10.0  # a constant hidden force above this many times the object's weight throws it off the table
+LATENCY_SHARE = 0.5  # a latency shifts this share of the telemetry out of the replay at most
 
 
 class Kind:
@@ -45,16 +56,15 @@ class Kind:
 
     `targets` says what a setting's `target` names: "objects" (an object, or ``type:<type>`` for every object of
     that type), "contacts" (objects or robot links ``<robot>/<link>``), "free objects" (objects that move),
-    "surfaces" (fixtures), "robot" (the robot's name) or "joints" (a telemetry joint). `minimum` is the smallest
-    valid value and `strict` whether it is excluded.
+    "surfaces" (fixtures), "robot" (the robot's name) or "joints" (a telemetry joint). `physical` is the range
+    of values possible at all (`bridge.odb.ranges`), `check_on` what a value must satisfy in one recording.
     """
 
     name: ClassVar[str]
     doc: ClassVar[str] = ""
     unit: ClassVar[str] = ""
     targets: ClassVar[str] = "objects"
-    minimum: ClassVar[float | None] = None
-    strict: ClassVar[bool] = False
+    physical: ClassVar[PhysicalRange] = ANY
     family: ClassVar["type[Family] | None"] = None
 
     def select(self, target: str, world: WorldState, odb: ObjectDatabase) -> tuple[str, ...]:
@@ -95,9 +105,12 @@ class Kind:
         return text
 
     def check_value(self, value: float) -> str | None:
-        """Why `value` is not valid for this kind, or None."""
-        if self.minimum is not None and (value < self.minimum or (self.strict and value == self.minimum)):
-            return f"{self.name} must be {'>' if self.strict else '>='} {self.minimum:g}, got {value:g}"
+        """Why `value` is not possible for this kind anywhere (outside `physical`), or None."""
+        return self.physical.problem(value, self.name)
+
+    def check_on(self, value: float, names: tuple[str, ...], rollout: Rollout, odb: ObjectDatabase) -> str | None:
+        """Why `value` on `names` (what a target selects in the rollout's world) is not possible in this recording,
+        or None. Checked for the values a user gives, before a replay (`bridge.params.check_values`)."""
         return None
 
     def apply(self, value: float, names: tuple[str, ...], rollout: Rollout, odb: ObjectDatabase) -> Rollout:
@@ -119,6 +132,11 @@ class Kind:
 
     def __repr__(self) -> str:
         return f"<kind {self.name}>"
+
+
+def _times(ratio: float) -> str:
+    """'300 times', '0.004 times': a ratio for a message."""
+    return f"{ratio:.0f} times" if ratio >= 10 else f"{ratio:.2g} times"
 
 
 def _type_name(world: WorldState, odb: ObjectDatabase, target: str) -> str:
@@ -143,7 +161,7 @@ class _ObjectField(Kind):
 
 
 class Friction(_ObjectField):
-    name, field_name, targets, minimum = "friction", "friction", "contacts", 0.0
+    name, field_name, targets, physical = "friction", "friction", "contacts", FRICTION
     doc = "Coulomb friction (static; also dynamic unless dynamic_friction is set); Drake combines two surfaces' values"
 
     def null(self, world, odb, target):
@@ -169,7 +187,7 @@ class DynamicFriction(Friction):
 
 
 class Dissipation(_ObjectField):
-    name, field_name, unit, targets, minimum = "dissipation", "dissipation", "s/m", "contacts", 0.0
+    name, field_name, unit, targets, physical = "dissipation", "dissipation", "s/m", "contacts", DISSIPATION
     doc = "Hunt-Crossley dissipation of the contact"
 
     def null(self, world, odb, target):
@@ -185,7 +203,7 @@ class Dissipation(_ObjectField):
 
 
 class HydroelasticModulus(_ObjectField):
-    name, field_name, unit, minimum, strict = "hydroelastic_modulus", "hydroelastic_modulus", "Pa", 0.0, True
+    name, field_name, unit, physical = "hydroelastic_modulus", "hydroelastic_modulus", "Pa", HYDROELASTIC_MODULUS
     doc = "hydroelastic modulus of a compliant object (contact stiffness)"
 
     def null(self, world, odb, target):
@@ -201,8 +219,16 @@ class HydroelasticModulus(_ObjectField):
 
 # --- scene values: mass --------------------------------------------------------------------------------------
 class Mass(_ObjectField):
-    name, field_name, unit, targets, minimum, strict = "mass", "mass", "kg", "free objects", 0.0, True
+    name, field_name, unit, targets, physical = "mass", "mass", "kg", "free objects", MASS
     doc = "mass of a free object (its rotational inertia follows as mass_spread says: by default scaled with it)"
+
+    def check_on(self, value, names, rollout, odb):
+        for name in names:
+            known = float(mass_properties(odb, rollout.world.objects[name].type).mass)
+            if not known / MASS_RATIO <= value <= known * MASS_RATIO:
+                return (f"mass {value:g} kg is {_times(value / known)} the {known:g} kg of {name!r} in the object "
+                        f"database, at most {MASS_RATIO:g} times more or less: another object, or not in kg")
+        return None
 
     def null(self, world, odb, target):
         return float(mass_properties(odb, _type_name(world, odb, target)).mass)
@@ -219,7 +245,9 @@ class Mass(_ObjectField):
 
 
 class MassSpread(_ObjectField):
-    name, field_name, targets, minimum = "mass_spread", "spread", "free objects", 0.0
+    name, field_name, targets = "mass_spread", "spread", "free objects"
+    physical = PhysicalRange(0.0, 3.0, "", "0 puts a changed mass at the centre of mass, 1 spreads it like the "
+                             "object's own, 3 at a box's corners")
     doc = ("where a changed mass sits: 1 spread like the object's own (uniform density: the rotational inertia "
            "scales with the mass), 0 at the centre of mass (a compact weight inside: the inertia stays)")
 
@@ -238,6 +266,19 @@ class _ComComponent(Kind):
 
     axis: ClassVar[int]
     unit, targets = "m", "free objects"
+    physical = PhysicalRange(-1.0, 1.0, "m", "in m: no object on a table reaches 1 m from its own origin")
+
+    def check_on(self, value, names, rollout, odb):
+        for name in names:
+            geometry = odb.get(rollout.world.objects[name].type).geometry
+            if geometry is None or (geometry.shape == "mesh" and geometry.mesh is None):
+                continue  # a mesh of a dataset not given: reported when the scene is built
+            e = np.eye(3)[self.axis]
+            lo, hi = -support(geometry, Pose(), -e), support(geometry, Pose(), e)
+            if not lo - 1e-9 <= value <= hi + 1e-9:
+                return (f"{self.name} {value:g} m is outside {name!r} ([{lo:.4g}, {hi:.4g}] m along its "
+                        f"{'xyz'[self.axis]}): a centre of mass lies within the body")
+        return None
 
     def apply(self, value, names, rollout, odb):
         values = rollout.values
@@ -283,6 +324,15 @@ class _ForceComponent(Kind):
 
     axis: ClassVar[int]
     unit, targets = "N", "free objects"
+    physical = PhysicalRange(-1000.0, 1000.0, "N", "in N: 1000 N is the weight of 100 kg")
+
+    def check_on(self, value, names, rollout, odb):
+        for name in names:
+            weight = self._weight(rollout.world, odb, name)
+            if abs(value) > FORCE_WEIGHTS * weight:
+                return (f"{self.name} {value:g} N is {_times(abs(value) / weight)} the weight of {name!r} "
+                        f"({weight:.3g} N; at most {FORCE_WEIGHTS:g}): it would throw the object off the table")
+        return None
 
     def apply(self, value, names, rollout, odb):
         values = rollout.values
@@ -322,6 +372,16 @@ class ForceZ(_ForceComponent):
 class Latency(Kind):
     name, unit, targets = "latency", "s", "robot"
     doc = "the robot moved this much later than its telemetry says (Telemetry.shifted)"
+    physical = PhysicalRange(-2.0, 2.0, "s", "teleoperation latencies are tens to hundreds of milliseconds; "
+                             "latency is in seconds: 120 ms is 0.12")
+
+    def check_on(self, value, names, rollout, odb):
+        tel = rollout.telemetry
+        if tel is None or abs(value) <= LATENCY_SHARE * tel.duration:
+            return None
+        return (f"latency {value:g} s would shift the robot's motion out of the {tel.duration:.3g} s telemetry "
+                f"{tel.source}: at most {LATENCY_SHARE:g} of it, {LATENCY_SHARE * tel.duration:.3g} s; latency is "
+                "in seconds, 120 ms is 0.12")
 
     def apply(self, value, names, rollout, odb):
         return rollout.with_telemetry(rollout.telemetry.shifted(float(value))) if value else rollout
@@ -342,6 +402,16 @@ class Latency(Kind):
 class JointOffset(Kind):
     name, targets = "joint_offset", "joints"
     doc = "a constant offset added to one joint's telemetry (calibration; m or rad)"
+    physical = PhysicalRange(-math.pi, math.pi, "", "rad or m: a calibration offset beyond half a turn is another zero")
+
+    def check_on(self, value, names, rollout, odb):
+        spec = odb.get(rollout.world.robot.type).robot
+        for name in names:
+            lo, hi = spec.limits.get(name, (-math.inf, math.inf))
+            if abs(value) > hi - lo:
+                return (f"joint_offset {value:g} on {name!r} is more than the joint's whole range [{lo:g}, {hi:g}] "
+                        f"in {spec.model.name}: no calibration error")
+        return None
 
     def apply(self, value, names, rollout, odb):
         offsets = {n: float(value) for n in names if n in rollout.telemetry.joint_names and value}
@@ -423,6 +493,8 @@ class SurfaceTilt(Family):
 
 class _Slope(_Member):
     family, unit = SurfaceTilt, "rad"
+    physical = PhysicalRange(-0.5, 0.5, "rad", "in rad: tilted by 0.5 rad, 29 deg, a surface sheds what stands on "
+                             "it, a different scene rather than a level one slightly off")
 
     def null(self, world, odb, target):
         return 0.0
@@ -450,6 +522,7 @@ class SurfaceSlopeY(_Slope):
 class SurfaceDz(_Member):
     name, component, family, unit = "surface_dz", "dz", SurfaceTilt, "m"
     doc = "surface tilt: height change of the top above the fixture's centre"
+    physical = PhysicalRange(-0.1, 0.1, "m", "in m: a surface 10 cm off its modelled height is another scene")
 
     def null(self, world, odb, target):
         return 0.0
@@ -491,6 +564,14 @@ class _Place(_Member):
     """A coordinate on a fixture's top (`axis` 0: world x, 1: y), within its extent."""
 
     unit, axis = "m", 0
+
+    def check_on(self, value, names, rollout, odb):
+        for name in names:
+            c, h = self._along(rollout.world, odb, name)
+            if not c - h - 1e-9 <= value <= c + h + 1e-9:
+                return (f"{self.name} {value:g} m is off the top of {name!r} ([{c - h:.4g}, {c + h:.4g}] m along "
+                        f"world {'xy'[self.axis]})")
+        return None
 
     def _along(self, world, odb, target) -> tuple[float, float]:
         """The top's centre and half extent along the axis."""
@@ -558,7 +639,8 @@ class PatchCy(_PatchCentre):
 
 
 class PatchHalf(_Member):
-    name, component, family, unit, minimum, strict = "patch_half", "half", Patch, "m", 0.0, True
+    name, component, family, unit = "patch_half", "half", Patch, "m"
+    physical = PhysicalRange(0.0, 10.0, "m", "in m: half the side of a square on a table", open_low=True)
     doc = "a region of other friction: half the side of its square"
 
     def null(self, world, odb, target):
@@ -573,7 +655,7 @@ class PatchHalf(_Member):
 
 
 class PatchMu(_Member):
-    name, component, family, minimum = "patch_mu", "mu", Patch, 0.0
+    name, component, family, physical = "patch_mu", "mu", Patch, FRICTION
     doc = "a region of other friction: its coefficient (like the surface's own, combined with the object's)"
 
     def null(self, world, odb, target):

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..odb import ObjectDatabase
+from ..rollout.rollout import Rollout
 from ..world import WorldState
 from .kinds import Kind, kind_named
 from .model import Model, Setting
@@ -48,7 +49,10 @@ class Parameter:
         world model's) unless `start` is given."""
         kind = kind_named(kind) if isinstance(kind, str) else kind
         null = kind.null(world, odb, target) if start is None else start
-        return cls(kind, target, bounds=kind.bounds(world, odb, target), start=null,
+        lo, hi = kind.bounds(world, odb, target)
+        r = kind.physical  # a search never leaves what is possible (an odb value near its range's end)
+        bounds = (max(lo, r.low), min(hi, r.high))
+        return cls(kind, target, bounds=bounds, start=min(max(null, bounds[0]), bounds[1]),
                    step=kind.step(world, odb, target), effect=effect)
 
     @property
@@ -185,6 +189,22 @@ def check_targets(parameters: ParameterSet, worlds: Sequence[WorldState], odb: O
             continue
         raise ParameterError(f"unknown target {p.target!r} for {p.kind.name}; {p.kind.valid_targets(worlds, odb)}",
                           source=parameters.source, field=f"params[{index}].target")
+
+
+def check_values(parameters: ParameterSet, rollouts: Sequence[Rollout], odb: ObjectDatabase) -> None:
+    """Every value a file gives (a fixed value, a free entry's bounds) is possible in every recording whose world
+    its target names something in (`Kind.check_on`: a latency well inside the telemetry, a centre of mass inside
+    the body, ...); an error names the file, the entry and the recording. The physical ranges are checked when
+    the file is read."""
+    for index, p in enumerate(parameters.entries):
+        given = [("value", p.value)] if not p.free else [(f"bounds[{k}]", b) for k, b in enumerate(p.bounds)]
+        for rollout in rollouts:
+            names = p.kind.select(p.target, rollout.world, odb)
+            for key, value in given if names else ():
+                problem = p.kind.check_on(float(value), names, rollout, odb)
+                if problem:
+                    where = f" (recording {rollout.name})" if rollout.name and len(rollouts) > 1 else ""
+                    raise ParameterError(problem + where, source=parameters.source, field=f"params[{index}].{key}")
 
 
 def replay_model(parameters: ParameterSet) -> Model:

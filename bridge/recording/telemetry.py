@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import RecordingError
 from ..files import write_atomic
+from ..odb.ranges import joint_problem
 
 TIME_COLUMNS = ("t", "time")
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -124,9 +125,11 @@ class Telemetry:
         return replace(self, positions=self.positions + delta)
 
 
-def validate_telemetry(tel: Telemetry, robot_joints: Sequence[str], *, required: Sequence[str] | None = None) -> None:
-    """Check that `tel` can drive a robot with `robot_joints`: it names no joint the robot lacks, and lacks none
-    of `required` (default: every robot joint)."""
+def validate_telemetry(tel: Telemetry, robot_joints: Sequence[str], *, required: Sequence[str] | None = None,
+                       limits: Mapping[str, tuple[float, float]] | None = None, model: str = "the robot model") -> None:
+    """Check that `tel` can drive a robot with `robot_joints`: it names no joint the robot lacks, lacks none
+    of `required` (default: every robot joint) and, given the model's joint `limits`, never leaves them (a
+    recording in degrees, or of another robot, would otherwise be replayed as it is)."""
     robot = tuple(robot_joints)
     unknown = [n for n in tel.joint_names if n not in robot]
     if unknown:
@@ -136,6 +139,14 @@ def validate_telemetry(tel: Telemetry, robot_joints: Sequence[str], *, required:
     if missing:
         raise RecordingError(f"telemetry lacks joint {_names(missing)} that the robot needs; it has "
                              f"{_names(tel.joint_names)}", source=tel.source, field=f"joint {missing[0]!r}")
+    for k, name in enumerate(tel.joint_names):
+        if limits is None or name not in limits:
+            continue
+        column = tel.positions[:, k]
+        worst = int(np.argmax(np.abs(column - np.clip(column, *limits[name]))))
+        problem = joint_problem(float(column[worst]), limits[name], name, model)
+        if problem:
+            raise RecordingError(problem, source=tel.source, field=f"sample {worst + 1} (t = {tel.times[worst]:g} s)")
 
 
 def load_telemetry(path: str | os.PathLike[str], *, topic: str | None = None) -> Telemetry:

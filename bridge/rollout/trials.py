@@ -133,18 +133,13 @@ def _push_trial(push, odb: ObjectDatabase, frame_yaw: float, observation_rate: f
 
 
 def _recording_trial(folder: Path, odb: ObjectDatabase) -> Trial:
-    from ..recording.recording import load_recording
-    from ..world import load_world_state
+    from ..recording.recording import load_recording, recording_world
 
     recording = load_recording(folder)
     if recording.observations is None:
         raise RecordingError("the recording has no observed poses (observed.csv); fitting and diagnosis compare with them",
                        source=str(folder))
-    world = load_world_state(recording.world_path, odb)
-    unknown = [name for name in recording.observations.objects if name not in world.objects]
-    if unknown:
-        raise RecordingError(f"observed object {unknown[0]!r} is not in world.yaml; objects: {', '.join(world.objects)}",
-                       source=str(folder))
+    world = recording_world(recording, odb)
     return Trial(recording.name, world, recording.telemetry, recording.observations, folder,
                  force=recording.force)
 

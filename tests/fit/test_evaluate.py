@@ -9,7 +9,7 @@ import pytest
 
 from bridge.fit.evaluate import default_spec, evaluate, failures, jobs_for
 from bridge.fit.synthetic import TRUE_VALUES, recovery_spec
-from bridge.params import parse_params
+from bridge.params import KINDS, Parameter, ParameterSet
 from bridge.recording.observations import ObservedPoses, ObservedTrack
 from bridge.rollout import PoseError, make_executor, run_rollout, scene_for
 from bridge.rollout.compare import FAILED
@@ -36,7 +36,8 @@ def test_truth_scores_zero_and_errors_grow_away_from_it(trials, serial):
 
 
 def test_a_failed_simulation_is_counted_and_scored_far_off(slide, serial):
-    spec = parse_params({"params": [{"kind": "force_z", "target": "small_box", "bounds": [-1e5, 0]}]})
+    # far beyond the physical range a parameter file may give (a file is refused): built here to force a failure
+    spec = ParameterSet((Parameter(KINDS["force_z"], "small_box", bounds=(-1e5, 0.0)),))
     (evaluation,) = evaluate(serial, slide, spec, [[-1e5]])
     (err,) = evaluation.errors
     assert err.failed and "went through 'table'" in err.failure
