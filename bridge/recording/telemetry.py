@@ -16,7 +16,7 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..errors import RecordingError
-from ..files import write_atomic
+from ..files import read_text_file, write_atomic
 from ..odb.ranges import joint_problem
 
 TIME_COLUMNS = ("t", "time")
@@ -355,20 +355,11 @@ def _choose_topic(types: Mapping[str, str], topic: str | None, src: str) -> str:
 
 # --- files (shared with the other recording modules) ----------------------------------------------------------
 def read_text(path: Path, what: str) -> str:
-    """The text of a UTF-8 file, or a RecordingError saying why it cannot be read or is empty."""
-    src = str(path)
-    if not path.exists():
-        raise RecordingError(f"{what} file not found", source=src)
-    if path.is_dir():
-        raise RecordingError(f"{what} file is a folder", source=src)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as err:
-        raise RecordingError(f"{what} file is not UTF-8 text ({err.reason} at byte {err.start})", source=src) from None
-    except OSError as err:
-        raise RecordingError(f"cannot read {what} file: {err.strerror or err}", source=src) from None
+    """The text of a UTF-8 file, or a RecordingError saying why it cannot be read (a byte that is not UTF-8: its
+    offset) or is empty."""
+    text = read_text_file(path, f"{what} file", RecordingError)
     if not text.strip():
-        raise RecordingError(f"{what} file is empty", source=src)
+        raise RecordingError(f"{what} file is empty", source=str(path))
     return text
 
 

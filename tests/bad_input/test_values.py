@@ -343,6 +343,10 @@ CASES: dict[str, Callable[[Ctx], Case]] = {
                                              names=("--max-duration",)),
     "diagnose-workers-0": option("diagnose", "REC", "--out", "OUT", "--workers", "0", names=("--workers",)),
     "prove-workers-0": option("prove", "--out", "OUT", "--workers", "0", names=("--workers",)),
+    "export-min-probability-nan": option("export", str(TABLETOP), "--out", "OUT", "--min-probability", "nan",
+                                         names=("minimum probability", "(0.5, 1]")),
+    "infer-min-probability-half": option("infer", "REC", "--min-probability", "0.5",
+                                         names=("minimum probability", "0.5")),
     # --- robot joints in a world state ----------------------------------------------------------------------------
     "world-joint-inf": bad_world(with_joints("arm_joint2: .inf"), "robot.joints.arm_joint2", "finite"),
     "world-joint-nan": bad_world(with_joints("arm_joint2: .nan"), "robot.joints.arm_joint2", "finite"),
