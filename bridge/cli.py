@@ -22,7 +22,8 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "fit": (commands.fit, "fit simulation parameters (friction, mass, ...) to recordings with observed poses"),
     "diagnose": (commands.diagnose, "locate where simulation and recordings differ, name the missing physics, model it"),
     "prove": (commands.prove, "conceal each effect in generated recordings and diagnose them blind (confusion matrix)"),
-    "check": (commands.check, "validate the object database and the action templates"),
+    "check": (commands.check, "validate the object database, domain.yaml and the action templates, and load "
+              "recordings or world states as infer would (without simulating)"),
     "export": (commands.export, "write the PDDL domain and problem of a world state"),
     "diff": (commands.diff, "compare two world states (or a world state and a PDDL problem)"),
     "apply": (commands.apply, "apply a ground action template to a world state"),
@@ -104,7 +105,10 @@ def build_parser() -> argparse.ArgumentParser:
         p.set_defaults(func=func)
         return p
 
-    add("check")
+    p = add("check")
+    p.add_argument("paths", nargs="*", metavar="PATH", help="recording folders or world-state files to load as infer "
+                   "would: world state, telemetry, observed poses, --scene/--params targets, the scene built in Drake")
+    _model_args(p)
     p = add("export")
     p.add_argument("world", help="world-state YAML")
     p.add_argument("--out", default=".", help="folder for domain.pddl and problem.pddl (default: current folder)")

@@ -51,35 +51,29 @@ def _domain_name(args) -> str:
 
 # --- commands -----------------------------------------------------------------------------------
 def check(args) -> int:
-    from .sim.shapes import mass_properties
+    from .check import check_database, check_domain, check_inputs
 
-    odb = _odb(args)
-    templates = _templates(args, odb)
-    concrete = odb.concrete_types()
-    print(f"object database {odb.root}: {len(odb.types)} types ({len(concrete)} concrete), "
-          f"{len(odb.predicates)} predicates, PDDL types: {', '.join(sorted(odb.pddl_types))}")
-    for name in concrete:  # mass properties of every usable type, so a broken mesh shows now
-        t = odb.types[name]
-        if t.geometry is not None and t.geometry.unresolved is None and not t.fixed and not t.is_robot:
-            mass_properties(odb, name)
-    unresolved = sorted(n for n in concrete if odb.types[n].geometry is not None and odb.types[n].geometry.unresolved)
-    if unresolved:
-        print(f"  not checked (dataset not found): {', '.join(unresolved)}")
-    print(f"action templates {Path(args.templates) / 'templates'}: {', '.join(sorted(templates))}")
+    odb = _odb(args)  # its SIEs are made with their parameters as it is read
+    inputs = check_inputs(args.paths, odb, scene=args.scene, params=args.params)  # a scene file alone: refused now
+    print(check_database(odb), flush=True)
+    print(check_domain(Path(args.templates), odb), flush=True)
+    for line in inputs:
+        print(line, flush=True)
     print("ok")
     return 0
 
 
 def export(args) -> int:
     from .planning.problem import export_pddl, uncertain_facts, uncertain_path
+    from .planning.templates import load_domain_settings
     from .world import load_world_state
 
     odb = _odb(args)
     world = load_world_state(args.world, odb)
     templates = _templates(args, odb)
     out = Path(args.out)
-    domain_path, problem_path = export_pddl(world, odb, templates, out, domain_name=_domain_name(args), goal=args.goal,
-                                            min_probability=args.min_probability)
+    domain_path, problem_path = export_pddl(world, odb, templates, out, settings=load_domain_settings(Path(args.templates)),
+                                            goal=args.goal, min_probability=args.min_probability)
     uncertain = uncertain_facts(world, args.min_probability)
     print(f"wrote {domain_path} and {problem_path}"
           + (f"; {len(uncertain)} uncertain fact(s) left out, listed in {uncertain_path(problem_path)}"

@@ -1,19 +1,21 @@
 """The object database: resolved types plus the PDDL view of them (type tree, predicate signatures)."""
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 from typing import Iterable, Mapping
 
 from ..errors import ObjectDatabaseError
 from .loader import dataset_names, dataset_roots_from_env, load_sie_class, read_types
-from .types import ObjectType, PredicateDecl
+from .types import ObjectType, PredicateDecl, SIERef
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_ROOT = REPO_ROOT / "odb"
 
 
 class ObjectDatabase:
-    """Read-only after loading; SIE instances are made once and cached (mass properties: bridge.sim.shapes)."""
+    """Read-only after loading; SIE instances are made once and cached, all of them when the database is read
+    (`check_sies`), so a bad SIE parameter shows then (mass properties: bridge.sim.shapes)."""
 
     def __init__(self, root: Path, types: Mapping[str, ObjectType], package: str, datasets: Mapping[str, Path]):
         self.root = root
@@ -57,15 +59,20 @@ class ObjectDatabase:
             if decl is None or decl.sie is None:
                 self._sies[key] = None
             else:
-                cls = load_sie_class(self._package, decl.sie)
-                try:
-                    instance = cls(**dict(decl.sie.params))
-                except TypeError as exc:
-                    raise ObjectDatabaseError(f"bad parameters for {decl.sie}: {exc}", source=decl.sie.source) from None
+                instance = make_sie(load_sie_class(self._package, decl.sie), decl.sie)
                 instance.predicate = predicate
                 instance.declaration = decl
                 self._sies[key] = instance
         return self._sies[key]
+
+    def check_sies(self) -> int:
+        """Make the SIE of every predicate of every concrete type, so that a parameter its class does not take, or
+        one it needs, is found when the database is read, not after a replay. Returns how many there are."""
+        count = 0
+        for name in self.concrete_types():
+            for predicate in self.types[name].predicates:
+                count += self.sie(name, predicate) is not None
+        return count
 
     # --- PDDL view ----------------------------------------------------------------------------
     def _pddl_tree(self) -> dict[str, str | None]:
@@ -101,6 +108,37 @@ class ObjectDatabase:
         return signatures
 
 
+def make_sie(cls: type, ref: SIERef):
+    """An instance of the SIE class `ref` names, made with its parameters; a parameter the class does not take,
+    one it needs that is not given, or a constructor that raises is one error naming the file and the entry."""
+    params = dict(ref.params)
+    source, entry = (ref.file, ref.entry) if ref.file else (ref.source, "")
+    where = f"{entry}.params" if entry else "params"
+    try:
+        signature = inspect.signature(cls)
+    except (TypeError, ValueError):  # a class whose constructor Python cannot inspect: its call says what is wrong
+        signature = None
+    if signature is not None:
+        named = [p for p in signature.parameters.values() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+        takes = ", ".join(p.name for p in named) or "none"
+        if not any(p.kind is p.VAR_KEYWORD for p in signature.parameters.values()):
+            unknown = sorted(k for k in params if k not in {p.name for p in named})
+            if unknown:
+                raise ObjectDatabaseError(f"SIE {ref} takes no parameter {unknown[0]!r}; its parameters: {takes}",
+                                          source=source, field=f"{where}.{unknown[0]}")
+        missing = [p.name for p in signature.parameters.values()
+                   if p.default is p.empty and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD) and p.name not in params]
+        if missing:
+            raise ObjectDatabaseError(f"SIE {ref} needs the parameter {missing[0]!r} (its parameters: {takes})",
+                                      source=source, field=f"{where}.{missing[0]}")
+    try:
+        return cls(**params)
+    except Exception as exc:  # the SIE's own constructor refused the values
+        given = ", ".join(f"{k}={v!r}" for k, v in params.items())
+        raise ObjectDatabaseError(f"SIE {ref}({given}) failed: {type(exc).__name__}: {exc}", source=source,
+                                  field=where) from None
+
+
 def load_object_database(root: str | Path | None = None, *, datasets: Mapping[str, str | Path] | None = None) -> ObjectDatabase:
     """Load and validate the database under `root` (default: this repository's ``odb/``).
 
@@ -114,7 +152,9 @@ def load_object_database(root: str | Path | None = None, *, datasets: Mapping[st
     wanted = dataset_names(root) - set(given)
     roots = {**dataset_roots_from_env(wanted, REPO_ROOT), **given}
     types, package = read_types(root, roots)
-    return ObjectDatabase(root, types, package, roots)
+    database = ObjectDatabase(root, types, package, roots)
+    database.check_sies()
+    return database
 
 
 def parse_dataset_options(options: Iterable[str]) -> dict[str, Path]:

@@ -276,7 +276,7 @@ class _Reader:
         if not isinstance(body, str) or body.count(":") != 1:
             raise ObjectDatabaseError(f"SIE reference {body!r} must look like 'sies.module:ClassName'", source=src, field=fld)
         module, cls = body.split(":")
-        ref = SIERef(module, cls, tuple(sorted(params.items())), f"{src}: {fld}")
+        ref = SIERef(module, cls, tuple(sorted(params.items())), f"{src}: {fld}", src, fld)
         load_sie_class(self.package, ref)  # a bad reference fails now, not during a teleoperation session
         return ref
 
@@ -310,32 +310,57 @@ class _Reader:
                 _number(g.get("open", 0.04), src, f"{gfld}.open", positive=False),
                 _number(g.get("closed", 0.0), src, f"{gfld}.closed", positive=False),
                 tuple(g.get("finger_links") or ()))
-        model_joints = _model_joints(model_path, src, f"{fld}.model")
-        missing = [j for j in joints if j not in model_joints]
+        model_xml = _model_names(model_path, src, f"{fld}.model")
+        joint_types = model_xml.joints
+        missing = [j for j in joints if j not in joint_types]
         if missing:
             raise ObjectDatabaseError(f"robot model {model_path.name} has no joint {missing[0]!r}; its joints: "
-                                      f"{', '.join(model_joints)}", source=src, field=f"{fld}.joints")
+                                      f"{', '.join(joint_types)}", source=src, field=f"{fld}.joints")
+        base_link = body.get("base_link", "base")
+        if model_xml.links:  # the links a model file names itself; one that includes others is checked by Drake
+            named = {f"{fld}.base_link": [base_link]}
+            if gripper is not None:
+                named[f"{fld}.gripper.finger_links"] = list(gripper.finger_links)
+            for where, links in named.items():
+                unknown = [link for link in links if link not in model_xml.links]
+                if unknown:
+                    raise ObjectDatabaseError(f"robot model {model_path.name} has no link {unknown[0]!r}; its links: "
+                                              f"{', '.join(model_xml.links)}", source=src, field=where)
+            if gripper is not None and gripper.tcp_frame not in model_xml.links + model_xml.frames:
+                raise ObjectDatabaseError(f"robot model {model_path.name} has no frame or link {gripper.tcp_frame!r}; "
+                                          f"its frames: {', '.join(model_xml.frames) or 'none'}; its links: "
+                                          f"{', '.join(model_xml.links)}", source=src, field=f"{fld}.gripper.tcp_frame")
         home = body.get("home") or {}
         if not isinstance(home, dict) or any(j not in joints for j in home):
             raise ObjectDatabaseError("home must map the robot's joints to positions", source=src, field=f"{fld}.home")
         home_positions = tuple((j, _number(v, src, f"{fld}.home.{j}", positive=False)) for j, v in home.items())
         for j, v in home_positions:
-            problem = joint_problem(v, model_joints[j][1:], j, model_path.name)
+            problem = joint_problem(v, joint_types[j][1:], j, model_path.name)
             if problem:
                 raise ObjectDatabaseError(problem, source=src, field=f"{fld}.home.{j}")
         return RobotSpec(
-            model=model_path, base_link=str(body.get("base_link", "base")), joints=tuple(joints), gripper=gripper,
+            model=model_path, base_link=str(base_link), joints=tuple(joints), gripper=gripper,
             home=home_positions,
             kp=_number(body.get("kp", 400.0), src, f"{fld}.kp", positive=True),
             kd=_number(body.get("kd", 40.0), src, f"{fld}.kd", positive=True),
-            joint_types=tuple((j, model_joints[j][0]) for j in joints),
-            joint_limits=tuple((j, *model_joints[j][1:]) for j in joints))
+            joint_types=tuple((j, joint_types[j][0]) for j in joints),
+            joint_limits=tuple((j, *joint_types[j][1:]) for j in joints),
+            links=model_xml.links, contact_links=model_xml.contact_links)
 
 
-def _model_joints(model: Path, src: str, fld: str) -> dict[str, tuple[str, float, float]]:
-    """Joint name -> (type, lower, upper) read from the SDF/URDF's XML, without building a simulation: what the
-    diagnosis needs to know of a joint (a calibration offset in metres or radians) and what positions a world
-    state or a recording may give it. Limits the model leaves out (a continuous joint) are infinite."""
+@dataclass(frozen=True)
+class _ModelNames:
+    joints: dict[str, tuple[str, float, float]]  # name -> (type, lower, upper); continuous joints: infinite limits
+    links: tuple[str, ...]  # () when the model includes or nests others (their names are scoped: Drake checks them)
+    contact_links: tuple[str, ...]
+    frames: tuple[str, ...]
+
+
+def _model_names(model: Path, src: str, fld: str) -> _ModelNames:
+    """The joints (with their types and limits), links and frames an SDF/URDF names, read from its XML: what the
+    diagnosis needs to know of a joint (a calibration offset in metres or radians), what positions a world state
+    or a recording may give it, and what the database and parameter files may name, known without building a
+    simulation."""
     try:
         root = ElementTree.parse(model).getroot()
     except (ElementTree.ParseError, OSError) as exc:
@@ -349,7 +374,11 @@ def _model_joints(model: Path, src: str, fld: str) -> dict[str, tuple[str, float
         if kind == "continuous" or not lo <= hi:
             lo, hi = -math.inf, math.inf
         joints[name] = (kind, lo, hi)
-    return joints
+    nested = any(True for _ in root.iter("include")) or sum(1 for _ in root.iter("model")) > 1
+    links = [] if nested else [link for link in root.iter("link") if link.get("name")]
+    return _ModelNames(joints, tuple(link.get("name") for link in links),
+                       tuple(link.get("name") for link in links if link.find("collision") is not None),
+                       () if nested else tuple(f.get("name") for f in root.iter("frame") if f.get("name")))
 
 
 def _limit(joint: ElementTree.Element, which: str, default: float) -> float:

@@ -64,6 +64,8 @@ class SIERef:
     cls: str
     params: tuple[tuple[str, Any], ...] = ()
     source: str = ""  # "file: field" for messages
+    file: str = ""  # the YAML file that names it ...
+    entry: str = ""  # ... and where in it: "<type>.predicates.<predicate>.sie"
 
     def __str__(self) -> str:
         return f"{self.module}:{self.cls}"
@@ -106,6 +108,8 @@ class RobotSpec:
     kd: float = 40.0
     joint_types: tuple[tuple[str, str], ...] = ()  # joint -> 'prismatic' | 'revolute' | ..., from the model file
     joint_limits: tuple[tuple[str, float, float], ...] = ()  # joint, lower, upper (rad or m), from the model file
+    links: tuple[str, ...] = ()  # the model's links, from its file (empty when the file includes other models)
+    contact_links: tuple[str, ...] = ()  # those with collision geometry: what a contact parameter may target
 
     @property
     def joint_type(self) -> dict[str, str]:

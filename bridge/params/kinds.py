@@ -75,7 +75,8 @@ class Kind:
         if self.targets == "joints":
             return (target,) if world.robot is not None and target in odb.get(world.robot.type).robot.joints else ()
         if self.targets == "contacts" and robot is not None and target.startswith(robot + "/"):
-            return (target,)
+            spec = odb.get(world.robot.type).robot  # a link the model lacks (or one nothing can touch) names nothing
+            return (target,) if not spec.links or target[len(robot) + 1:] in spec.contact_links else ()
         if target.startswith(TYPE_PREFIX):
             wanted = target[len(TYPE_PREFIX):]
             names = tuple(n for n, o in world.objects.items() if odb.get(o.type).is_a(wanted))
@@ -101,7 +102,9 @@ class Kind:
         types = sorted({o.type for w in worlds for o in w.objects.values()})
         text = f"objects: {', '.join(objects)}; or type:<type> with a type among {', '.join(types)}"
         if self.targets == "contacts" and robots:
-            text += f"; or a robot link <robot>/<link> of {', '.join(robots)}"
+            links = sorted({f"{w.robot.name}/{link}" for w in worlds if w.robot is not None
+                            for link in odb.get(w.robot.type).robot.contact_links})
+            text += f"; or a robot link with collision geometry: {', '.join(links) or '<robot>/<link>'}"
         return text
 
     def check_value(self, value: float) -> str | None:

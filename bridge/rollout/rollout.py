@@ -22,7 +22,7 @@ from ..odb import ObjectDatabase
 from ..recording.telemetry import Telemetry
 from ..sim.contacts import contacts_at_start
 from ..sim.scene import Scene, SceneValues, SimConfig, build_scene
-from ..sim.simulate import ReplayResult, SimOptions, simulate
+from ..sim.simulate import ReplayResult, SimOptions, simulate, start_replay
 from ..values import Contact, Pose
 from ..world import WorldState
 
@@ -89,6 +89,14 @@ def run_rollout(rollout: Rollout, odb: ObjectDatabase, options: SimOptions = Sim
     fails (see `bridge.sim.simulate.FailurePolicy`) and any other `BridgeError` for bad input."""
     return simulate(scene_for(rollout, odb), rollout.telemetry, world=rollout.world, values=rollout.values,
                     hooks=rollout.hooks, options=options, on_sample=on_sample, progress=progress)
+
+
+def check_rollout(rollout: Rollout, odb: ObjectDatabase) -> Scene:
+    """Everything `run_rollout` does before its first step (the scene built, the context made, the telemetry
+    checked against the robot, the hooks started), without simulating: a rollout that passes starts replaying."""
+    scene = scene_for(rollout, odb)
+    start_replay(scene, rollout.telemetry, world=rollout.world, values=rollout.values, hooks=rollout.hooks)
+    return scene
 
 
 def start_contacts(rollout: Rollout, odb: ObjectDatabase) -> list[Contact]:

@@ -31,7 +31,7 @@ from ..errors import SceneError
 from ..odb import ObjectDatabase, ObjectType
 from ..values import Pose
 from ..world import WorldState
-from .shapes import drake_shape, mass_properties
+from .shapes import check_shape, drake_shape, mass_properties
 from .sources import ConstantForces, DesiredState
 
 
@@ -269,6 +269,8 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     g = obj_type.geometry
     if g is None:
         raise SceneError(f"object {name!r} of type {obj_type.name!r} has no geometry", source=str(obj_type.source))
+    if obj_type.fixed:  # a mesh Drake cannot read names the type (a free body's does in mass_properties)
+        check_shape(obj_type)
     shape = drake_shape(obj_type)
     if obj_type.fixed:
         body, X_BG = plant.world_body(), to_drake(pose)

@@ -125,20 +125,8 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     values = values or SceneValues()
     policy = options.policy
     plant = scene.plant
-    context = scene.new_context(world, values)
+    context, actuated, cols, states = start_replay(scene, telemetry, world=world, values=values, hooks=hooks)
     plant_ctx = plant.GetMyMutableContextFromRoot(context)
-    actuated, cols = [], None
-    if scene.robot_instance is not None and telemetry is not None:
-        validate_telemetry(telemetry, scene.robot_joints)
-        cols = scene.actuator_columns(telemetry.joint_names)
-        scene.set_desired(context, telemetry.times, telemetry.positions[:, cols])
-        start = dict(zip(telemetry.joint_names, telemetry.sample(0.0)))
-        plant.SetPositions(plant_ctx, scene.robot_instance, scene.robot_positions(start))
-        actuated = scene.actuated_joints()
-    elif scene.robot_instance is not None and scene.desired_source is not None:  # no telemetry: hold still
-        held = [plant.GetPositions(plant_ctx, scene.robot_instance)[j.position_start() - scene.robot_q0()]
-                for j in scene.actuated_joints()]
-        scene.set_desired(context, np.array([0.0]), np.array([held]))
     end = options.end if options.end is not None else (telemetry.end if telemetry is not None else 0.0) + options.settle
     times = sample_times(end, options.sample_rate)
     names = list(scene.bodies)
@@ -151,7 +139,6 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     joints = np.zeros((len(times), len(actuated))) if options.joint_track and actuated else None
     supports = [(n, scene.odb.get(o.type).geometry, o.pose) for n, o in world.objects.items()
                 if scene.odb.get(o.type).fixed and scene.odb.get(o.type).geometry is not None]
-    states = [hook.start(scene, context, values) for hook in hooks]
     log: list[Contact] = []
     worst, lag_since = 0.0, None
     simulator = Simulator(scene.diagram, context)
@@ -217,6 +204,31 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     return ReplayResult(times, tracks, final, tuple(log), moved, touched, worst, float(times[-1]),
                         wallclock.perf_counter() - started, wallclock.process_time() - cpu, robot,
                         tuple(j.name() for j in actuated), joints, force)
+
+
+def start_replay(scene: Scene, telemetry: Telemetry | None, *, world: WorldState, values: SceneValues,
+                 hooks: Sequence[ContextHook] = ()) -> tuple[object, list, np.ndarray | None, list]:
+    """What `simulate` does before its first step: a context with the world, the values and the robot where its
+    telemetry starts (or holding still without one), the telemetry checked against the robot's joints, the hooks
+    started. Returns the context, the actuated joints, their telemetry columns and the hooks' states.
+    `bridge check` runs it alone: whatever a replay would refuse at its start, without simulating."""
+    plant = scene.plant
+    context = scene.new_context(world, values)
+    plant_ctx = plant.GetMyMutableContextFromRoot(context)
+    actuated, cols = [], None
+    if scene.robot_instance is not None and telemetry is not None:
+        validate_telemetry(telemetry, scene.robot_joints)
+        cols = scene.actuator_columns(telemetry.joint_names)
+        scene.set_desired(context, telemetry.times, telemetry.positions[:, cols])
+        start = dict(zip(telemetry.joint_names, telemetry.sample(0.0)))
+        plant.SetPositions(plant_ctx, scene.robot_instance, scene.robot_positions(start))
+        actuated = scene.actuated_joints()
+    elif scene.robot_instance is not None and scene.desired_source is not None:  # no telemetry: hold still
+        held = [plant.GetPositions(plant_ctx, scene.robot_instance)[j.position_start() - scene.robot_q0()]
+                for j in scene.actuated_joints()]
+        scene.set_desired(context, np.array([0.0]), np.array([held]))
+    states = [hook.start(scene, context, values) for hook in hooks]
+    return context, actuated, cols, states
 
 
 def _moved(track: np.ndarray) -> bool:
