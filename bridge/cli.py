@@ -127,8 +127,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="write the successor world state here")
     p = add("infer")
     p.add_argument("recording", help="recording folder (world.yaml, telemetry, optional observed.csv)")
-    p.add_argument("--world-out", default=None, help="inferred world state (default: RECORDING/world_after.yaml)")
-    p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: beside --world-out)")
+    p.add_argument("--world-out", default=None, help="inferred world state (default: out/NAME/world_after.yaml "
+                   "under the current folder, NAME the recording folder's name)")
+    p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: problem_after.pddl beside "
+                   "--world-out)")
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=positive_float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
     _model_args(p)
@@ -140,14 +142,18 @@ def build_parser() -> argparse.ArgumentParser:
     _model_args(p)
     p = add("view")
     p.add_argument("recording", help="recording folder")
-    p.add_argument("--out", default=None, help="HTML file (default: RECORDING/replay.html)")
+    p.add_argument("--out", default=None, help="HTML file (default: out/NAME/replay.html under the current folder, "
+                   "NAME the recording folder's name)")
     _model_args(p)
     _sample_args(p)
     p = add("act")
     p.add_argument("world", help="world state before the action")
     p.add_argument("action", help="action template, e.g. push_over")
     p.add_argument("args", nargs="*", help="the action's arguments")
-    p.add_argument("--out", required=True, help="recording folder to write")
+    p.add_argument("--out", required=True, help="recording folder to write (written whole: an interrupted run "
+                   "leaves the old folder or none)")
+    p.add_argument("--overwrite", action="store_true", help="replace the recording in a non-empty --out folder "
+                   "(its other files are kept)")
     p = add("fit")
     p.add_argument("recordings", nargs="+", metavar="RECORDING",
                    help="recording folders (with observed.csv), MIT .h5 files, or folders of .h5 files")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Callable
 
@@ -15,7 +16,9 @@ from .errors import BridgeError
 def run(command: Callable, args) -> int:
     """Run one command; bad input is one line on stderr (exit 1), never a traceback."""
     try:
-        return int(command(args) or 0)
+        with ExitStack() as claimed:  # the outputs the command claimed (_claim): locked until it ends
+            args._claimed = claimed
+            return int(command(args) or 0)
     except BridgeError as exc:
         print(f"bridge {args.command}: error: {exc}", file=sys.stderr)
         return 1
@@ -49,6 +52,46 @@ def _domain_name(args) -> str:
     return load_domain_settings(Path(args.templates)).name
 
 
+# --- outputs ------------------------------------------------------------------------------------
+OUT_ROOT = Path("out")  # default outputs go under ./out, never into an input folder
+
+
+def _claim(args, files=(), folders=(), *, replaced=(), inputs=()) -> None:
+    """Check every output before the long work and lock its folder until the command ends (see
+    `bridge.files.claim_outputs`); called from outside `run`, only the checks are made."""
+    from .files import claim_outputs
+
+    claim = claim_outputs(files, folders, replaced=replaced, inputs=inputs)
+    stack = getattr(args, "_claimed", None)
+    if stack is None:
+        with claim:
+            return
+    stack.enter_context(claim)
+
+
+def _default_out(recording) -> Path:
+    """out/<recording folder name>: where `infer` and `view` write when not told."""
+    return OUT_ROOT / (Path(recording).resolve().name or "recording")
+
+
+def _infer_outputs(args) -> tuple[Path, Path]:
+    """`infer`'s world state and problem (default: out/NAME/world_after.yaml and problem_after.pddl), claimed."""
+    from .planning.problem import uncertain_path
+
+    world_out = Path(args.world_out) if args.world_out else _default_out(args.recording) / "world_after.yaml"
+    problem_out = Path(args.problem_out) if args.problem_out else world_out.with_name("problem_after.pddl")
+    _claim(args, [world_out, problem_out, uncertain_path(problem_out)], inputs=_model_inputs(args, args.recording))
+    return world_out, problem_out
+
+
+def _model_inputs(args, recording=None) -> list[Path]:
+    """The files a replay reads (an output must not overwrite one)."""
+    from .recording.recording import input_paths
+
+    files = [Path(f) for f in (getattr(args, "scene", None), getattr(args, "params", None)) if f]
+    return files + (list(input_paths(recording)) if recording is not None else [])
+
+
 # --- commands -----------------------------------------------------------------------------------
 def check(args) -> int:
     from .check import check_database, check_domain, check_inputs
@@ -72,6 +115,8 @@ def export(args) -> int:
     world = load_world_state(args.world, odb)
     templates = _templates(args, odb)
     out = Path(args.out)
+    _claim(args, [out / "domain.pddl", out / "problem.pddl", uncertain_path(out / "problem.pddl")],
+           inputs=[args.world])
     domain_path, problem_path = export_pddl(world, odb, templates, out, settings=load_domain_settings(Path(args.templates)),
                                             goal=args.goal, min_probability=args.min_probability)
     uncertain = uncertain_facts(world, args.min_probability)
@@ -103,6 +148,8 @@ def apply(args) -> int:
     from .world import load_world_state, save_world_state
 
     odb = _odb(args)
+    if args.out:
+        _claim(args, [args.out])
     world = load_world_state(args.world, odb)
     after = apply_action(world, odb, _templates(args, odb), args.action, list(args.args))
     print(diff_worlds(world, after).text())
@@ -164,17 +211,19 @@ def _session(recording_path, odb, args, *, label: str, events=None):
 
 def _write_outputs(world, odb, args, world_out: Path, problem_out: Path | None) -> None:
     """The world state after, and its PDDL problem (with a world's fact probabilities: the believed facts, and
-    the uncertain ones in comments and beside it as JSON)."""
-    from .files import write_atomic
-    from .planning.problem import problem_text, write_uncertain
+    the uncertain ones in comments and beside it as JSON), published as one set: an interrupt leaves the old
+    files or the new ones, never a new world state beside an old problem."""
+    from .files import write_set
+    from .planning.problem import problem_text, uncertain_path, uncertain_text
     from .probability import DEFAULT_MIN_PROBABILITY
-    from .world import save_world_state
+    from .world import world_text
 
-    save_world_state(world, world_out)
+    files = {world_out: world_text(world)}
     if problem_out is not None:
         threshold = getattr(args, "min_probability", DEFAULT_MIN_PROBABILITY)
-        write_atomic(problem_out, problem_text(world, odb, _domain_name(args), min_probability=threshold))
-        write_uncertain(world, problem_out, threshold)
+        files[problem_out] = problem_text(world, odb, _domain_name(args), min_probability=threshold)
+        files[uncertain_path(problem_out)] = uncertain_text(world, threshold)  # None: a stale one is removed
+    write_set(files)
 
 
 def _sampled(recording_path, odb, args, *, label: str, events=None):
@@ -214,6 +263,7 @@ def infer(args) -> int:
     odb = _odb(args)
     check_min_probability(args.min_probability)
     events = json_lines(sys.stdout) if args.events else None
+    world_out, problem_out = _infer_outputs(args)
     label = f"replaying {Path(args.recording).name}"
     sampled = None
     if args.samples:
@@ -226,8 +276,6 @@ def infer(args) -> int:
     else:
         recording, session = _session(args.recording, odb, args, label=label, events=events)
         world = session.inference.world
-    world_out = Path(args.world_out or Path(args.recording) / "world_after.yaml")
-    problem_out = Path(args.problem_out) if args.problem_out else world_out.with_name("problem_after.pddl")
     _write_outputs(world, odb, args, world_out, problem_out)
     out = sys.stderr if args.events else sys.stdout
     print(diff_worlds(session.before, world).text(), file=out)
@@ -247,6 +295,7 @@ def demo(args) -> int:
     if not folders:
         raise BridgeError("no recordings (folders with world.yaml) found", source=str(args.recordings))
     out_root = Path(args.out)
+    _claim(args, folders=[out_root / folder.name for folder in folders], inputs=_model_inputs(args))
     status = 0
     for folder in folders:
         _, session = _session(folder, odb, args, label=folder.name)
@@ -266,8 +315,9 @@ def view(args) -> int:
     from .sim.viewer import write_replay_html
 
     odb = _odb(args)
+    out = Path(args.out) if args.out else _default_out(args.recording) / "replay.html"
+    _claim(args, [out], inputs=_model_inputs(args, args.recording))
     recording = load_recording(args.recording)
-    out = Path(args.out or Path(args.recording) / "replay.html")
     r = _rollout(recording, odb, args)
     spread = ()
     if args.samples:  # where the objects end under the drawn parameters, as ghosts
@@ -288,6 +338,7 @@ def fit(args) -> int:
     from .rollout import Rollout, load_trials, make_executor
 
     odb = _odb(args)
+    _claim(args, folders=[args.out], inputs=[f for f in (args.params, args.scene) if f])
     trials = load_trials(args.recordings, odb, max_duration=args.max_duration)
     recorded = [Rollout(t.world, t.telemetry, name=t.name) for t in trials]
     if args.scene:  # fit on top of the model bridge diagnose found: its settings start every replay
@@ -322,6 +373,7 @@ def _fit_progress(p) -> None:
 def diagnose(args) -> int:
     from .diagnosis.pipeline import diagnose_paths, summary_text
 
+    _claim(args, folders=[args.out])
     run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
                          effects=[e.strip() for e in args.effects.split(",")] if args.effects else None, max_duration=args.max_duration)
     print(summary_text(run))
@@ -332,6 +384,7 @@ def diagnose(args) -> int:
 def prove(args) -> int:
     from .prove.proof import run_proof
 
+    _claim(args, folders=[args.out])
     proof = run_proof(args.out, _odb(args), size=args.size, workers=args.workers,
                       log=lambda m: print(m, file=sys.stderr, flush=True))
     print(proof.text())
@@ -343,6 +396,8 @@ def act(args) -> int:
     from .enactment import make_recording
 
     odb = _odb(args)
-    recording = make_recording(Path(args.world), args.action, list(args.args), Path(args.out), odb, _templates(args, odb))
+    _claim(args, replaced=[args.out], inputs=[args.world])
+    recording = make_recording(Path(args.world), args.action, list(args.args), Path(args.out), odb,
+                               _templates(args, odb), overwrite=args.overwrite)
     print(f"wrote recording {recording.folder} ({recording.telemetry.duration:.1f} s of telemetry)")
     return 0

@@ -20,7 +20,7 @@ from .odb import ObjectDatabase
 from .planning.apply import PlanStep, apply_action
 from .planning.templates import ActionTemplate
 from .recording.observations import ObservedPoses, ObservedTrack
-from .recording.recording import Recording, save_recording
+from .recording.recording import Recording, check_recording_folder, save_recording
 from .recording.telemetry import Telemetry
 from .bodies import BODIES, world_after_replay
 from .rollout.rollout import Rollout, run_rollout
@@ -137,7 +137,9 @@ def make_recording(world_path: str | Path, action: str, args: Sequence[str], out
                    odb: ObjectDatabase, templates: Mapping[str, ActionTemplate], *, overwrite: bool = False,
                    rng=None) -> Recording:
     """`bridge act`: one action's body as a recording folder (world.yaml copied, telemetry.csv, observed.csv with
-    the simulated poses before and after, recording.yaml naming the action)."""
+    the simulated poses before and after, recording.yaml naming the action). The folder is checked before the
+    simulation and written as a whole (an interrupted run leaves the old folder or none); a non-empty one is
+    refused unless `overwrite`."""
     return make_plan_recording(world_path, [(action, tuple(args))], out_folder, odb, templates, overwrite=overwrite,
                                rng=rng)
 
@@ -146,6 +148,7 @@ def make_plan_recording(world_path: str | Path, steps: Sequence[PlanStep | tuple
                         out_folder: str | Path, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate], *,
                         name: str | None = None, overwrite: bool = False, rng=None) -> Recording:
     """Several actions in one telemetry, written as a recording folder (see `make_recording`)."""
+    check_recording_folder(out_folder, overwrite)  # before the simulation, not after it
     world_path = Path(world_path)
     world = load_world_state(world_path, odb)
     done = enact(world, odb, templates, steps, rng=rng)

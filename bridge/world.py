@@ -279,5 +279,10 @@ def world_to_dict(world: WorldState) -> dict[str, Any]:
     return data
 
 
+def world_text(world: WorldState) -> str:
+    """The world-state file's text (what `save_world_state` writes; `write_set` publishes it with its problem)."""
+    return "# bridge world state\n" + dump_yaml(world_to_dict(world))
+
+
 def save_world_state(world: WorldState, path: str | Path) -> None:
-    write_atomic(path, "# bridge world state\n" + dump_yaml(world_to_dict(world)), WorldStateError)
+    write_atomic(path, world_text(world), WorldStateError)

@@ -1,6 +1,7 @@
 """`bridge diagnose` end to end: trials -> held-out split -> identify -> scene file, diagnosis.json, report, plots."""
 from __future__ import annotations
 
+import io
 import math
 import sys
 import time
@@ -12,7 +13,8 @@ import numpy as np
 
 from ..errors import DiagnosisError
 from ..odb import ObjectDatabase
-from ..params import Model, Parameter, ParameterSet, kind_named, save_param_file
+from ..files import Content, write_atomic
+from ..params import Model, Parameter, ParameterSet, kind_named, param_file_text
 from ..rollout.executors import Executor, make_executor
 from ..rollout.trials import Trial
 from .identify import Identification, Options, identify
@@ -75,21 +77,23 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
         data = diagnosis_json(ident, failures=failures)
         return DiagnosisRun(ident, data, files, after)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    scene_path = None
+    scene_path = out / SCENE_FILE
+    others: dict[Path, Content] = {scene_path: None}  # a scene file of an earlier diagnosis goes with its report
     if ident.verdict != "none":
-        scene_path = save_scene_file(out / SCENE_FILE, ident.winner.model, odb,
-                                     {"verdict": ident.verdict, "target": ident.winner.target,
-                                      "recordings": list(ident.train) + list(ident.held_out)},
-                                     std=ident.winner.model_std)
-    data = diagnosis_json(ident, scene_file=scene_path.name if scene_path else None, failures=failures)
+        others[scene_path] = scene_file_text(scene_path, ident.winner.model, odb,
+                                             {"verdict": ident.verdict, "target": ident.winner.target,
+                                              "recordings": list(ident.train) + list(ident.held_out)},
+                                             std=ident.winner.model_std)
+    data = diagnosis_json(ident, scene_file=SCENE_FILE if others[scene_path] else None, failures=failures)
     data["seconds"] = round(time.perf_counter() - started, 2)
-    figures: list[str] = []
+    figures: dict[Path, Content] = {}
     if plots:
-        figures = [str(p) for p in _plots(ident, after, out)]
-    json_path, md_path = write_outputs(out, data, report_markdown(ident, data, figures))
+        figures = _plots(ident, after, out)
+        others.update({p: None for p in out.glob("residual_*.png") if p not in figures})  # an earlier run's
+        others.update(figures)
+    json_path, md_path = write_outputs(out, data, report_markdown(ident, data, [str(p) for p in figures]), others)
     files.update({"json": json_path, "report": md_path})
-    if scene_path:
+    if others[scene_path] is not None:
         files["scene"] = scene_path
     return DiagnosisRun(ident, data, files, after)
 
@@ -99,24 +103,37 @@ def save_scene_file(path: Path, model: Model, odb: ObjectDatabase, diagnosis: di
     """The diagnosed model as a parameter file of fixed values, each entry labelled with its effect and, where the
     fit measured it, its 1-sigma uncertainty (`std`: what `bridge infer --samples` draws from): `bridge
     infer`/`view`/`demo --scene` replay with it, `bridge fit --scene` fits on top of it, `--params` takes it too."""
+    write_atomic(path, scene_file_text(path, model, odb, diagnosis, std))
+    return Path(path)
+
+
+def scene_file_text(path: Path, model: Model, odb: ObjectDatabase, diagnosis: dict[str, Any],
+                    std: dict[str, float] | None = None) -> str:
+    """What `save_scene_file` writes to `path` (a diagnosis publishes it with its report as one set)."""
     std = {k: v for k, v in (std or {}).items() if math.isfinite(v)}
     entries = tuple(Parameter(kind_named(s.kind), s.target, value=s.value, effect=s.effect, std=std.get(s.name))
                     for s in model)
     header = ("bridge scene file (bridge diagnose): the fitted ordinary parameters and the diagnosed effect, as\n"
               "fixed parameter values; use it with --scene (infer, view, demo, fit) or --params")
-    return save_param_file(path, ParameterSet(entries, str(path)), header=header, record={"diagnosis": diagnosis})
+    return param_file_text(ParameterSet(entries, str(path)), header=header, record={"diagnosis": diagnosis})
 
 
-def _plots(ident: Identification, after: Localisation | None, out: Path) -> list[Path]:
-    figures = [plot_scores(ident, out / "effects.png")]
+def _plots(ident: Identification, after: Localisation | None, out: Path) -> dict[Path, Content]:
+    """The report's figures, drawn into memory (published with the report): path -> PNG bytes."""
+    def png(plot, *args) -> bytes:
+        buffer = io.BytesIO()
+        plot(*args, buffer)
+        return buffer.getvalue()
+
+    figures: dict[Path, Content] = {out / "effects.png": png(plot_scores, ident)}
     before = ident.localisation
     if ident.held_out_localisation is not None:
         before = Localisation(before.objects + ident.held_out_localisation.objects)
-    figures.append(plot_paths(before, after, out / "paths.png"))
+    figures[out / "paths.png"] = png(plot_paths, before, after)
     after_by = {(o.recording, o.object): o for o in (after.objects if after else ())}
     for o in before.ranking()[:MAX_RESIDUAL_PLOTS]:
         name = "".join(c if c.isalnum() or c in "-_" else "_" for c in f"residual_{o.recording}_{o.object}")
-        figures.append(plot_residuals(o, after_by.get((o.recording, o.object)), out / f"{name[:80]}.png"))
+        figures[out / f"{name[:80]}.png"] = png(plot_residuals, o, after_by.get((o.recording, o.object)))
     return figures
 
 

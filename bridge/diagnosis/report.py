@@ -4,11 +4,11 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, BinaryIO, Mapping, Sequence
 
 import numpy as np
 
-from ..files import write_atomic
+from ..files import Content, write_set
 from .identify import Identification, _error_json
 from .locate import Localisation, LocatedObject
 
@@ -142,7 +142,7 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
 
 
 # --- plots ------------------------------------------------------------------------------------------------------
-def plot_residuals(located: LocatedObject, after: LocatedObject | None, path: Path) -> Path:
+def plot_residuals(located: LocatedObject, after: LocatedObject | None, path: Path | BinaryIO) -> Path | BinaryIO:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -178,12 +178,12 @@ def plot_residuals(located: LocatedObject, after: LocatedObject | None, path: Pa
     axes[0].legend(fontsize=7, ncol=3)
     axes[1].legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
     return path
 
 
-def plot_paths(before: Localisation, after: Localisation | None, path: Path) -> Path:
+def plot_paths(before: Localisation, after: Localisation | None, path: Path | BinaryIO) -> Path | BinaryIO:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -209,12 +209,12 @@ def plot_paths(before: Localisation, after: Localisation | None, path: Path) -> 
     axes[0, 0].legend(fontsize=6)
     fig.suptitle("object centre paths (mm)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
     return path
 
 
-def plot_scores(ident: Identification, path: Path) -> Path:
+def plot_scores(ident: Identification, path: Path | BinaryIO) -> Path | BinaryIO:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -228,16 +228,17 @@ def plot_scores(ident: Identification, path: Path) -> Path:
     ax.barh(labels[::-1], np.log10(1.0 + np.array(scores[::-1])), color=colors[::-1])
     ax.set_xlabel("log10(1 + score), score = log evidence against none")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
     return path
 
 
-def write_outputs(out: Path, data: Mapping[str, Any], markdown: str) -> tuple[Path, Path]:
-    out.mkdir(parents=True, exist_ok=True)
+def write_outputs(out: Path, data: Mapping[str, Any], markdown: str,
+                  others: Mapping[Path, Content] | None = None) -> tuple[Path, Path]:
+    """diagnosis.json and report.md, published as one set with `others` (the scene file, plots; None removes a
+    stale one): an interrupt leaves the old report or the new one."""
     j, m = out / "diagnosis.json", out / "report.md"
-    write_atomic(j, json.dumps(data, indent=2) + "\n")
-    write_atomic(m, markdown)
+    write_set({**(others or {}), j: json.dumps(data, indent=2) + "\n", m: markdown})
     return j, m
 
 

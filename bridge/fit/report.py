@@ -3,17 +3,18 @@ pushes the real and simulated paths before and after the fit. The keys of fit.js
 """
 from __future__ import annotations
 
+import io
 import json
 import math
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, BinaryIO, Sequence
 
 import numpy as np
 
 from ..errors import SimulationFailure
-from ..files import write_atomic
+from ..files import write_set
 from ..odb import ObjectDatabase
-from ..params import save_param_file, trial_rollout
+from ..params import param_file_text, trial_rollout
 from ..rollout.compare import PoseError
 from ..rollout.rollout import run_rollout
 from ..rollout.trials import Trial
@@ -28,22 +29,31 @@ ORANGE, DARK_BLUE, LIGHT_BLUE = "#ff7f0e", "#1f3a93", "#9ecae1"
 
 def write_report(result: FitResult, out: str | Path, *, trials: Sequence[Trial] = (),
                  odb: ObjectDatabase | None = None) -> dict[str, Path]:
-    """Write every file of the report into `out`; returns them by name. Trajectories need `trials` and `odb`
-    (a few extra replays, in this process)."""
+    """Write every file of the report into `out` as one set (`bridge.files.write_set`: an interrupt leaves the
+    old report or the new one; a trajectory plot of an earlier fit is removed when this one has none); returns
+    them by name. Trajectories need `trials` and `odb` (a few extra replays, in this process)."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    files = {PARAMS_FILE: out / PARAMS_FILE, FIT_FILE: out / FIT_FILE, TABLE_FILE: out / TABLE_FILE}
     header = (f"fitted by bridge fit ({result.optimizer}, seed {result.seed}, {result.generations} generations) on "
               f"{len(result.fit_trials)} trial(s): e {result.before.e:.6f} -> {result.after.e:.6f} m")
-    save_param_file(files[PARAMS_FILE], result.fitted_spec, header=header)
-    write_atomic(files[FIT_FILE], json.dumps(fit_json(result), indent=1) + "\n")
-    write_atomic(files[TABLE_FILE], table1(result) + "\n")
-    files[FIG4_PARAMS] = plot_parameters(result, out / FIG4_PARAMS)
-    files[FIG4_ERRORS] = plot_errors(result, out / FIG4_ERRORS)
+    contents: dict[str, str | bytes | None] = {
+        PARAMS_FILE: param_file_text(result.fitted_spec, header=header),
+        FIT_FILE: json.dumps(fit_json(result), indent=1) + "\n",
+        TABLE_FILE: table1(result) + "\n",
+        FIG4_PARAMS: _png(plot_parameters, result),
+        FIG4_ERRORS: _png(plot_errors, result),
+        TRAJECTORIES: None}
     pushes = [t for t in trials if t.is_planar_push]
     if pushes and odb is not None:
-        files[TRAJECTORIES] = plot_trajectories(result, pushes, odb, out / TRAJECTORIES)
-    return files
+        contents[TRAJECTORIES] = _png(plot_trajectories, result, pushes, odb)
+    write_set({out / name: content for name, content in contents.items()})
+    return {name: out / name for name, content in contents.items() if content is not None}
+
+
+def _png(plot, *args) -> bytes:
+    """A figure drawn into memory, so it is published with the rest of the report."""
+    buffer = io.BytesIO()
+    plot(*args, buffer)
+    return buffer.getvalue()
 
 
 # --- fit.json ------------------------------------------------------------------------------------------------
@@ -132,7 +142,7 @@ def _pyplot():
     return plt
 
 
-def plot_parameters(result: FitResult, path: Path) -> Path:
+def plot_parameters(result: FitResult, path: Path | BinaryIO) -> Path | BinaryIO:
     """Fig. 4 (a, b, d, e): per parameter the best individual, the parents' mean and their 20-80 % band."""
     plt = _pyplot()
     spec, history = result.spec, result.history
@@ -158,12 +168,12 @@ def plot_parameters(result: FitResult, path: Path) -> Path:
     axes[0][0].legend(fontsize=8)
     fig.suptitle(f"Parameter evolution ({result.optimizer})")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
     return path
 
 
-def plot_errors(result: FitResult, path: Path) -> Path:
+def plot_errors(result: FitResult, path: Path | BinaryIO) -> Path | BinaryIO:
     """Fig. 4 (c, f) and the overall error: best so far, the selected individuals' mean, best-to-80th band."""
     plt = _pyplot()
     gens = [g.generation + 1 for g in result.generation_errors]
@@ -183,13 +193,14 @@ def plot_errors(result: FitResult, path: Path) -> Path:
         ax.set_xlabel("generation")
     axes[0].legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
     return path
 
 
 # --- planar pushes -------------------------------------------------------------------------------------------
-def plot_trajectories(result: FitResult, trials: Sequence[Trial], odb: ObjectDatabase, path: Path) -> Path:
+def plot_trajectories(result: FitResult, trials: Sequence[Trial], odb: ObjectDatabase,
+                      path: Path | BinaryIO) -> Path | BinaryIO:
     """Observed and simulated object paths (x-y, mm) before and after the fit, for a few held-out pushes (or
     fitted ones when none is held out). Data: Yu, Bauza, Fazeli, Rodriguez, IROS 2016."""
     plt = _pyplot()
@@ -223,7 +234,7 @@ def plot_trajectories(result: FitResult, trials: Sequence[Trial], odb: ObjectDat
         ax.legend(fontsize=7)
     fig.suptitle("MIT planar pushing (Yu et al., IROS 2016)\nreal vs simulated object paths", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, format="png")
     plt.close(fig)
     return path
 

@@ -164,11 +164,17 @@ def save_param_file(path: str | Path, parameters: ParameterSet, header: str = ""
                     record: Mapping[str, Mapping[str, Any]] | None = None) -> Path:
     """Write `parameters` (atomically); `header` lines become comments, `record` ({"fit": ...} or
     {"diagnosis": ...}) what the run that wrote it records."""
+    write_atomic(path, param_file_text(parameters, header, record), ParameterError)
+    return Path(path)
+
+
+def param_file_text(parameters: ParameterSet, header: str = "",
+                    record: Mapping[str, Mapping[str, Any]] | None = None) -> str:
+    """What `save_param_file` writes (a report publishes it with its other files as one set)."""
     data = parameters.to_dict()
     for key, value in (record or {}).items():
         if key not in FILE_KEYS[1:]:
             raise ParameterError(f"a parameter file records 'fit' or 'diagnosis', not {key!r}")
         data[key] = dict(value)
     comments = "".join(f"# {line}\n" for line in header.splitlines())
-    write_atomic(path, comments + dump_yaml(data), ParameterError)
-    return Path(path)
+    return comments + dump_yaml(data)

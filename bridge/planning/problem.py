@@ -27,7 +27,7 @@ from pddl.logic.terms import Constant, Term
 
 from ..errors import PddlError
 from ..names import NameMap, build_name_map, to_identifier
-from ..files import read_text_file, write_atomic
+from ..files import read_text_file, write_set
 from ..odb import ObjectDatabase
 from ..probability import DEFAULT_MIN_PROBABILITY, check_min_probability, wilson_interval
 from ..values import Fact
@@ -152,8 +152,9 @@ def export_pddl(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, 
                 problem_path: str | Path | None = None, domain_name: str | None = None,
                 settings: DomainSettings | None = None, goal: str | None = None,
                 min_probability: float = DEFAULT_MIN_PROBABILITY) -> tuple[Path, Path]:
-    """Write ``domain.pddl`` and ``problem.pddl`` (into `out_dir`, or to the explicit paths), each atomically;
-    for a world with fact probabilities also the uncertain facts beside the problem (`uncertain_path`).
+    """Write ``domain.pddl`` and ``problem.pddl`` (into `out_dir`, or to the explicit paths) as one set
+    (`bridge.files.write_set`: all or nothing, even when interrupted); for a world with fact probabilities also
+    the uncertain facts beside the problem (`uncertain_path`), else a stale file of that name is removed.
 
     Both texts are built and checked before either file is touched.
     """
@@ -168,9 +169,8 @@ def export_pddl(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, 
     except Exception as exc:
         raise PddlError(f"the problem does not fit the domain: {exc}") from None
     domain_file, problem_file = domain_to_string(domain) + "\n", _render(world, problem, min_probability)
-    write_atomic(domain_path, domain_file)
-    write_atomic(problem_path, problem_file)
-    write_uncertain(world, problem_path, min_probability)
+    write_set({domain_path: domain_file, problem_path: problem_file,
+               uncertain_path(problem_path): uncertain_text(world, min_probability)})
     return domain_path, problem_path
 
 
@@ -179,13 +179,22 @@ def uncertain_path(problem_path: str | Path) -> Path:
     return Path(problem_path).with_suffix(".uncertain.json")
 
 
+def uncertain_text(world: WorldState, min_probability: float = DEFAULT_MIN_PROBABILITY) -> str | None:
+    """The uncertain-facts file of a world with fact probabilities; None for a world without (in a `write_set`:
+    a stale file of an earlier sampled run is removed)."""
+    if not world.samples:
+        return None
+    return json.dumps(uncertain_json(world, min_probability), indent=1) + "\n"
+
+
 def write_uncertain(world: WorldState, problem_path: str | Path,
                     min_probability: float = DEFAULT_MIN_PROBABILITY) -> Path | None:
     """`uncertain_json` beside the problem, for a world with fact probabilities (else nothing)."""
-    if not world.samples:
+    text = uncertain_text(world, min_probability)
+    if text is None:
         return None
     path = uncertain_path(problem_path)
-    write_atomic(path, json.dumps(uncertain_json(world, min_probability), indent=1) + "\n")
+    write_set({path: text})
     return path
 
 

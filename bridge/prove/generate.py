@@ -28,7 +28,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..diagnosis.effects import Truth, get_effect
-from ..files import dump_yaml
+from ..files import dump_yaml, write_atomic
 from ..odb import ObjectDatabase
 from ..recording.forces import ObservedForce
 from ..recording.observations import ObservedPoses, ObservedTrack
@@ -91,5 +91,5 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
                        ObservedPoses((observed,)), {"name": f"{case.scene}_rec_{k:02d}", "robot": "planar_pusher"},
                        force=sensed, overwrite=True)
         paths.append(path)
-    (folder / "truth.json").write_text(json.dumps({"case": case.name, **truth.to_json()}, indent=2))
+    write_atomic(folder / "truth.json", json.dumps({"case": case.name, **truth.to_json()}, indent=2))
     return paths, truth

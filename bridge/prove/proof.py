@@ -25,7 +25,7 @@ from ..diagnosis.identify import Options
 from ..diagnosis.pipeline import DiagnosisRun, run_diagnosis
 from ..diagnosis.runs import default_workers
 from ..errors import DiagnosisError
-from ..files import write_atomic
+from ..files import write_atomic, write_set
 from ..odb import ObjectDatabase
 from ..rollout.executors import Executor, make_executor
 from .generate import generate_case
@@ -263,6 +263,6 @@ def run_proof(out: str | Path, odb: ObjectDatabase, *, size: str = "small", case
             partial = ProofResult(size, tuple(results), time.perf_counter() - started)
             write_atomic(out / "proof.json", json.dumps(partial.to_json(), indent=2) + "\n")
     proof = ProofResult(size, tuple(results), time.perf_counter() - started)
-    write_atomic(out / "proof.json", json.dumps(proof.to_json(), indent=2) + "\n")
-    write_atomic(out / "proof.md", "# Proof: concealed effects diagnosed blind\n\n```\n" + proof.text() + "\n```\n")
+    write_set({out / "proof.json": json.dumps(proof.to_json(), indent=2) + "\n",
+               out / "proof.md": "# Proof: concealed effects diagnosed blind\n\n```\n" + proof.text() + "\n```\n"})
     return proof

@@ -13,7 +13,7 @@ from typing import Any, Mapping
 import yaml
 
 from ..errors import RecordingError
-from ..files import load_yaml_text, read_yaml, write_atomic, yaml_error
+from ..files import load_yaml_text, read_yaml, replace_folder, write_atomic, yaml_error
 from ..odb import ObjectDatabase
 from ..world import WorldState, load_world_state
 from .forces import ObservedForce, load_force_csv, save_force_csv
@@ -102,19 +102,35 @@ def recording_world(recording: Recording, odb: ObjectDatabase) -> WorldState:
     return world
 
 
+def input_paths(folder: str | os.PathLike[str]) -> tuple[Path, ...]:
+    """The files a recording folder is read from, by their usual names (an output must not overwrite them)."""
+    folder = Path(folder)
+    return tuple(folder / name for name in (WORLD_FILE, RECORDING_FILE, OBSERVATIONS_FILE, FORCE_FILE,
+                                            *TELEMETRY_CANDIDATES))
+
+
+def check_recording_folder(folder: str | os.PathLike[str], overwrite: bool = False) -> None:
+    """Refuse, before any work, a recording folder that cannot be written: a file, or a folder that holds files
+    when not `overwrite` (the hint names the command line's --overwrite and the Python argument)."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise RecordingError("cannot save a recording: the path is a file", source=str(folder))
+    if folder.is_dir() and not overwrite and any(folder.iterdir()):
+        raise RecordingError("folder is not empty; pass --overwrite (overwrite=True from Python) to replace its "
+                             "recording", source=str(folder))
+
+
 def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str], telemetry: Telemetry,
                    observations: ObservedPoses | None = None, metadata: Mapping[str, Any] | None = None, *,
                    force: ObservedForce | None = None, overwrite: bool = False) -> Recording:
     """Write a recording folder and read it back. `world` is the world-state YAML text (a str) or a file to
     copy (a path object). Telemetry is written as telemetry.csv, observations as observed.csv, a force track as
-    force.csv; every file is
-    replaced atomically. An existing non-empty folder is refused unless `overwrite`."""
+    force.csv. The folder is written as a whole (`bridge.files.replace_folder`: built beside it, renamed into
+    place), so an interrupted save leaves the old folder or none. An existing non-empty folder is refused unless
+    `overwrite`; then its recording files are replaced and its other files (a scene file, notes) kept."""
     folder = Path(folder)
     src = str(folder)
-    if folder.exists() and not folder.is_dir():
-        raise RecordingError("cannot save a recording: the path is a file", source=src)
-    if folder.is_dir() and any(folder.iterdir()) and not overwrite:
-        raise RecordingError("folder is not empty; pass overwrite=True to replace its recording files", source=src)
+    check_recording_folder(folder, overwrite)
     meta = _check_metadata(dict(metadata or {}), "metadata argument")
     for key in ("telemetry", "observations", "force", "telemetry_topic"):
         if key in meta:
@@ -123,9 +139,11 @@ def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str]
     if meta.get("scene") is not None and not (folder / meta["scene"]).exists():
         raise RecordingError(f"scene file not found (paths are relative to the recording folder {src})",
                              source="metadata argument", field="scene")
-    if observations is None and (folder / OBSERVATIONS_FILE).exists():
-        raise RecordingError(f"{OBSERVATIONS_FILE} already exists and would be read back as this recording's "
-                             f"observations; remove it or pass observations", source=src)
+    for name, given in ((OBSERVATIONS_FILE, observations), (FORCE_FILE, force)):
+        if given is None and (folder / name).exists():
+            raise RecordingError(f"{name} already exists and would be read back as this recording's "
+                                 f"{'observations' if name == OBSERVATIONS_FILE else 'force'}; remove it or pass "
+                                 f"{'observations' if name == OBSERVATIONS_FILE else 'force'}", source=src)
     world_text = _world_text(world)
     meta["telemetry"] = TELEMETRY_FILE
     if observations is not None:
@@ -133,13 +151,15 @@ def save_recording(folder: str | os.PathLike[str], world: str | os.PathLike[str]
     if force is not None:
         meta["force"] = FORCE_FILE
     ordered = {key: meta[key] for key in FIELDS if key in meta}
-    write_atomic(folder / WORLD_FILE, world_text, RecordingError)
-    save_telemetry_csv(folder / TELEMETRY_FILE, telemetry)
-    if observations is not None:
-        save_observations_csv(folder / OBSERVATIONS_FILE, observations)
-    if force is not None:
-        save_force_csv(folder / FORCE_FILE, force)
-    write_atomic(folder / RECORDING_FILE, yaml.safe_dump(ordered, sort_keys=False, allow_unicode=True), RecordingError)
+    with replace_folder(folder, RecordingError) as new:
+        write_atomic(new / WORLD_FILE, world_text, RecordingError)
+        save_telemetry_csv(new / TELEMETRY_FILE, telemetry)
+        if observations is not None:
+            save_observations_csv(new / OBSERVATIONS_FILE, observations)
+        if force is not None:
+            save_force_csv(new / FORCE_FILE, force)
+        write_atomic(new / RECORDING_FILE, yaml.safe_dump(ordered, sort_keys=False, allow_unicode=True),
+                     RecordingError)
     return load_recording(folder)
 
 

@@ -13,6 +13,9 @@ from bridge.prove.scenes import Case
 def test_diagnose_writes_a_valid_report(odb, tmp_path, capsys):
     paths, _ = generate_case(Case("planar", "none", "medium", 2), odb, tmp_path / "clean", 3)
     out = tmp_path / "diag"
+    out.mkdir()
+    (out / "scene.yaml").write_text("# an earlier diagnosis' scene file\n")  # stale beside a verdict of none
+    (out / "residual_old_run_box.png").write_bytes(b"")
     assert main(["diagnose", *map(str, paths), "--out", str(out), "--workers", "1", "--hold-out", "1"]) == 0
     printed = capsys.readouterr().out
     assert "verdict: none" in printed
@@ -21,6 +24,8 @@ def test_diagnose_writes_a_valid_report(odb, tmp_path, capsys):
     assert data["verdict"] == "none" and data["recordings"]["held_out"] and "held_out_before" in data["error"]
     assert (out / "report.md").read_text().startswith("# Diagnosis")
     assert (out / "paths.png").is_file() and (out / "effects.png").is_file()
+    assert not (out / "scene.yaml").exists() and not (out / "residual_old_run_box.png").exists()  # one report
+    assert not list(out.glob(".*"))  # no lock file, no temporary file
 
 
 def test_diagnose_reports_bad_input_in_one_line(tmp_path, capsys):

@@ -59,7 +59,7 @@ def test_save_copies_a_world_file_and_refuses_a_full_folder(tmp_path):
     world.write_text(WORLD)
     rec = save_recording(tmp_path / "rec", world, make_telemetry())
     assert rec.world_path.read_text() == WORLD and rec.observations is None and rec.name == "rec"
-    with pytest.raises(RecordingError, match="not empty; pass overwrite=True"):
+    with pytest.raises(RecordingError, match="not empty; pass --overwrite \\(overwrite=True from Python\\)"):
         save_recording(tmp_path / "rec", world, make_telemetry())
     again = save_recording(tmp_path / "rec", world, make_telemetry().shifted(1.0), overwrite=True)
     assert again.telemetry.t0 == 1.0
