@@ -5,20 +5,32 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
-from contextlib import ExitStack
+import threading
+from contextlib import ExitStack, suppress
 from pathlib import Path
 from typing import Callable
 
 from .errors import BridgeError
 
 
+def _terminate(signum, frame):
+    raise KeyboardInterrupt  # SIGTERM ends a command the way Ctrl-C does: outputs as a set, locks released
+
+
 def run(command: Callable, args) -> int:
     """Run one command; bad input is one line on stderr (exit 1), never a traceback."""
+    on_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if on_main else None
     try:
         with ExitStack() as claimed:  # the outputs the command claimed (_claim): locked until it ends
             args._claimed = claimed
             return int(command(args) or 0)
+    except BrokenPipeError:  # `bridge ... | head`: the reader left; nothing more to say to it
+        with suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except BridgeError as exc:
         print(f"bridge {args.command}: error: {exc}", file=sys.stderr)
         return 1
@@ -31,6 +43,9 @@ def run(command: Callable, args) -> int:
         print(f"bridge {args.command}: internal error: {type(exc).__name__}: {exc} (set BRIDGE_DEBUG=1 for the "
               "traceback)", file=sys.stderr)
         return 3
+    finally:
+        if on_main:
+            signal.signal(signal.SIGTERM, previous)
 
 
 # --- shared loading ---------------------------------------------------------------------------
@@ -47,9 +62,13 @@ def _templates(args, odb):
 
 
 def _domain_name(args) -> str:
+    """The domain's name from domain.yaml, read once per command (infer reads it before replaying, so a broken
+    domain.yaml is refused before the work)."""
     from .planning.templates import load_domain_settings
 
-    return load_domain_settings(Path(args.templates)).name
+    if getattr(args, "_domain", None) is None:
+        args._domain = load_domain_settings(Path(args.templates)).name
+    return args._domain
 
 
 # --- outputs ------------------------------------------------------------------------------------
@@ -262,6 +281,7 @@ def infer(args) -> int:
 
     odb = _odb(args)
     check_min_probability(args.min_probability)
+    _domain_name(args)
     events = json_lines(sys.stdout) if args.events else None
     world_out, problem_out = _infer_outputs(args)
     label = f"replaying {Path(args.recording).name}"

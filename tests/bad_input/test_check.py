@@ -121,9 +121,9 @@ def garbage_mesh(s):
 
 
 def mesh_with_bad_face(s):
-    (s.odb / "types" / "junk.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    (s.odb / "types" / "junk.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
     path = add_type(s, "junk: {parent: box, geometry: {shape: mesh, mesh: junk.obj}, physics: {mass: 0.2}}\n", "junk")
-    return Planted((path, "junk.geometry.mesh", "Vertex indices out of bounds"), [s.rec], s.infer())
+    return Planted((path, "junk.geometry.mesh", "junk.obj"), [s.rec], s.infer())
 
 
 def mesh_without_volume(s):
