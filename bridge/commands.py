@@ -118,22 +118,48 @@ def apply(args) -> int:
     return 0
 
 
-class Progress:
-    """A one-line progress bar on stderr for long replays (silent when stderr is not a terminal)."""
+REPLAY_QUIET = 5.0  # s: off a terminal, a replay shorter than this prints no progress line
 
-    def __init__(self, label: str):
-        self.label, self.last = label, -1
-        self.enabled = sys.stderr.isatty()
 
-    def __call__(self, done: float, total: float) -> None:
-        percent = int(100 * done / total) if total else 100
-        if self.enabled and percent != self.last:
-            self.last = percent
-            print(f"\r{self.label}: {percent:3d}% ({done:.1f} / {total:.1f} s simulated)", end="", file=sys.stderr, flush=True)
+def _replay_progress(label: str):
+    """Progress of one replay, in simulated seconds (a bar on a terminal, plain lines in a log)."""
+    from .progress import Progress
 
-    def close(self) -> None:
-        if self.enabled and self.last >= 0:
-            print(file=sys.stderr)
+    return Progress(label, unit=" s simulated", number=".1f", delay=REPLAY_QUIET)
+
+
+def _is_push_file(path) -> bool:
+    from .rollout.trials import H5_SUFFIXES
+
+    return Path(path).suffix.lower() in H5_SUFFIXES and not Path(path).is_dir()
+
+
+class _Source:
+    """What a command replays: a recording folder's, or an MIT push file's world, telemetry and observations."""
+
+    def __init__(self, path, odb, args):
+        self.path = Path(path)
+        shape = getattr(args, "shape", None)
+        if _is_push_file(path):
+            from .rollout import load_trials
+
+            trial = load_trials([path], odb, shape=shape)[0]
+            self.name, self.world, self.telemetry = trial.name, trial.world, trial.telemetry
+            self.observations = trial.observations
+        else:
+            from .recording.recording import load_recording
+            from .world import load_world_state
+
+            if shape is not None:
+                raise BridgeError(f"--shape {shape} names the shape pushed in an MIT .h5 file, but {path} is not one")
+            recording = load_recording(path)
+            self.name, self.telemetry = recording.name, recording.telemetry
+            self.world = load_world_state(recording.world_path, odb)
+            self.observations = recording.observations
+
+    def default_out(self, name: str) -> Path:
+        """RECORDING/name for a folder; for a push file, STEM_name in the current folder (not in the dataset)."""
+        return Path(f"{self.path.stem}_{name}") if _is_push_file(self.path) else self.path / name
 
 
 def _rollout(recording, odb, args):
@@ -142,9 +168,8 @@ def _rollout(recording, odb, args):
     against the recording's world."""
     from .params import apply_model, load_param_file, replay_model
     from .rollout import Rollout
-    from .world import load_world_state
 
-    rollout = Rollout(load_world_state(recording.world_path, odb), recording.telemetry, name=recording.name)
+    rollout = Rollout(recording.world, recording.telemetry, name=recording.name)
     for option in ("scene", "params"):
         path = getattr(args, option, None)
         if path:
@@ -153,12 +178,11 @@ def _rollout(recording, odb, args):
 
 
 def _session(recording_path, odb, args, *, label: str, events=None):
-    from .recording.recording import load_recording
     from .teleop import run_session
 
-    recording = load_recording(recording_path)
+    recording = _Source(recording_path, odb, args)
     rollout = _rollout(recording, odb, args)
-    progress = Progress(label)
+    progress = _replay_progress(label)
     try:
         return recording, run_session(rollout, odb, event_period=args.event_period if events else None,
                                       on_event=events, progress=progress)
@@ -185,22 +209,26 @@ def _sampled(recording_path, odb, args, *, label: str, events=None):
     """The recording replayed as it is and `--samples` times with parameters drawn from the uncertainty of the
     --scene / --params files (entries with a std), or else from the object database's ranges."""
     from .params import load_param_file
-    from .recording.recording import load_recording
+    from .progress import Progress
     from .rollout import make_executor
     from .uncertainty import parameters_from_file, sample_session
 
-    recording = load_recording(recording_path)
+    recording = _Source(recording_path, odb, args)
     rollout = _rollout(recording, odb, args)
     drawn = [u for option in ("scene", "params") if getattr(args, option, None)
              for u in parameters_from_file(load_param_file(getattr(args, option)), rollout.world, odb)]
-    progress = Progress(label)
+    time_limit = getattr(args, "time_limit", None)
+    progress = _replay_progress(label)
+    samples = Progress("sample", total=args.samples, time_limit=time_limit)
     try:
         with make_executor(args.executor, odb, workers=args.workers) as executor:
             return recording, sample_session(rollout, odb, args.samples, executor=executor, parameters=drawn or None,
                                              seed=args.seed, event_period=args.event_period if events else None,
-                                             on_event=events, progress=progress)
+                                             on_event=events, progress=progress, sample_progress=samples,
+                                             time_limit=time_limit)
     finally:
         progress.close()
+        samples.close()
 
 
 def _report_failures(session) -> int:
@@ -217,6 +245,8 @@ def infer(args) -> int:
 
     odb = _odb(args)
     check_min_probability(args.min_probability)
+    if args.time_limit is not None and not args.samples:
+        raise BridgeError("--time-limit bounds the sampled replays: it needs --samples N")
     events = json_lines(sys.stdout) if args.events else None
     label = f"replaying {Path(args.recording).name}"
     sampled = None
@@ -230,8 +260,9 @@ def infer(args) -> int:
     else:
         recording, session = _session(args.recording, odb, args, label=label, events=events)
         world = session.inference.world
-    world_out = Path(args.world_out or Path(args.recording) / "world_after.yaml")
-    problem_out = Path(args.problem_out) if args.problem_out else world_out.with_name("problem_after.pddl")
+    world_out = Path(args.world_out) if args.world_out else recording.default_out("world_after.yaml")
+    problem_out = (Path(args.problem_out) if args.problem_out else world_out.with_name("problem_after.pddl")
+                   if args.world_out else recording.default_out("problem_after.pddl"))
     _write_outputs(world, odb, args, world_out, problem_out)
     out = sys.stderr if args.events else sys.stdout
     print(diff_worlds(session.before, world).text(), file=out)
@@ -266,12 +297,11 @@ def demo(args) -> int:
 
 
 def view(args) -> int:
-    from .recording.recording import load_recording
     from .sim.viewer import write_replay_html
 
     odb = _odb(args)
-    recording = load_recording(args.recording)
-    out = Path(args.out or Path(args.recording) / "replay.html")
+    recording = _Source(args.recording, odb, args)
+    out = Path(args.out) if args.out else recording.default_out("replay.html")
     r = _rollout(recording, odb, args)
     spread = ()
     if args.samples:  # where the objects end under the drawn parameters, as ghosts
@@ -292,7 +322,7 @@ def fit(args) -> int:
     from .rollout import Rollout, load_trials, make_executor
 
     odb = _odb(args)
-    trials = load_trials(args.recordings, odb, max_duration=args.max_duration)
+    trials = load_trials(args.recordings, odb, max_duration=args.max_duration, shape=args.shape)
     if args.scene:  # fit on top of the model bridge diagnose found: its settings start every replay
         base = replay_model(load_param_file(args.scene))
         for t in trials:  # every target must name something in every recording
@@ -301,10 +331,15 @@ def fit(args) -> int:
     spec = load_param_file(args.params) if args.params else default_spec(trials, odb)
     out = Path(args.out)
     print(f"bridge fit: {len(trials)} trial(s); free parameters: {', '.join(spec.names) or 'none'}", file=sys.stderr)
-    with make_executor(args.executor, odb, workers=args.workers, scheduler=args.scheduler) as executor:
-        result = fit_parameters(trials, spec, odb=odb, optimizer=args.optimizer, seed=args.seed,
-                                generations=args.generations, popsize=args.popsize, executor=executor,
-                                hold_out=args.hold_out, checkpoint=out, resume=args.resume, progress=_fit_progress)
+    report = _FitProgress(args.time_limit)
+    try:
+        with make_executor(args.executor, odb, workers=args.workers, scheduler=args.scheduler) as executor:
+            result = fit_parameters(trials, spec, odb=odb, optimizer=args.optimizer, seed=args.seed,
+                                    generations=args.generations, popsize=args.popsize, executor=executor,
+                                    hold_out=args.hold_out, checkpoint=out, resume=args.resume, progress=report,
+                                    time_limit=args.time_limit)
+    finally:
+        report.close()
     files = write_report(result, out, trials=trials, odb=odb)
     print(table1(result))
     print(result_summary(result))
@@ -312,17 +347,52 @@ def fit(args) -> int:
     return 0
 
 
-def _fit_progress(p) -> None:
-    print(f"generation {p.generation}/{p.max_generations}: best e {p.best_e:.6f} (this generation {p.generation_best_e:.6f}), "
-          f"{p.evaluations} candidates, {p.simulations} simulations, {p.failures} failed, {p.elapsed:.1f} s",
-          file=sys.stderr, flush=True)
+class _FitProgress:
+    """A fit's generations as a progress bar (plain lines off a terminal), and after the first one an estimate
+    of the whole fit's time."""
+
+    def __init__(self, time_limit: float | None):
+        from .progress import Progress
+
+        self.time_limit = time_limit
+        self.bar = Progress("generation", time_limit=time_limit)
+        self.first: tuple[int, float] | None = None  # (generation, elapsed) at the first report
+
+    def __call__(self, p) -> None:
+        from .progress import duration_text
+
+        self.bar(p.generation, p.max_generations,
+                 status=f"best e {p.best_e:.6f} (this generation {p.generation_best_e:.6f}), {p.evaluations} "
+                        f"candidates, {p.simulations} simulations, {p.failures} failed")
+        if self.first is None:
+            self.first = (p.generation, p.elapsed)
+            left = p.max_generations - p.generation
+            if left > 0:
+                each = p.elapsed / max(p.generation, 1)
+                text = (f"bridge fit: the first generation took {duration_text(each)}; the {left} left take about "
+                        f"{duration_text(each * left)} more at most (the fit stops earlier when the best error stops "
+                        "improving)")
+                if self.time_limit is not None:
+                    text += f"; the time limit stops it after {duration_text(self.time_limit)}"
+                else:
+                    text += "; --time-limit SECONDS bounds it"
+                self.bar.write(text)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 def diagnose(args) -> int:
     from .diagnosis.pipeline import diagnose_paths, summary_text
+    from .progress import Progress
 
-    run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
-                         effects=args.effects.split(",") if args.effects else None, max_duration=args.max_duration)
+    progress = Progress("diagnosis step", time_limit=args.time_limit)
+    try:
+        run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
+                             effects=args.effects.split(",") if args.effects else None, max_duration=args.max_duration,
+                             shape=args.shape, time_limit=args.time_limit, log=progress.write, progress=progress)
+    finally:
+        progress.close()
     print(summary_text(run))
     print(f"wrote {', '.join(str(f) for f in run.files.values())}")
     return 0
@@ -331,8 +401,14 @@ def diagnose(args) -> int:
 def prove(args) -> int:
     from .prove.proof import run_proof
 
-    proof = run_proof(args.out, _odb(args), size=args.size, workers=args.workers,
-                      log=lambda m: print(m, file=sys.stderr, flush=True))
+    from .progress import Progress
+
+    progress = Progress("case", time_limit=args.time_limit)
+    try:
+        proof = run_proof(args.out, _odb(args), size=args.size, workers=args.workers, log=progress.write,
+                          progress=progress, time_limit=args.time_limit)
+    finally:
+        progress.close()
     print(proof.text())
     print(f"wrote {Path(args.out) / 'proof.json'} and {Path(args.out) / 'proof.md'}")
     return 0
