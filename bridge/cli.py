@@ -113,7 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="write the successor world state here")
     p = add("infer")
     p.add_argument("recording", help="recording folder (world.yaml, telemetry, optional observed.csv) or MIT .h5 file")
-    p.add_argument("--world-out", default=None, help="inferred world state (default: RECORDING/world_after.yaml)")
+    p.add_argument("--world-out", default=None, help="inferred world state (default: RECORDING/world_after.yaml; "
+                   "for an .h5 file, STEM_world_after.yaml in the current folder)")
     p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: beside --world-out)")
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
@@ -128,7 +129,8 @@ def build_parser() -> argparse.ArgumentParser:
     _model_args(p)
     p = add("view")
     p.add_argument("recording", help="recording folder or MIT .h5 file")
-    p.add_argument("--out", default=None, help="HTML file (default: RECORDING/replay.html)")
+    p.add_argument("--out", default=None, help="HTML file (default: RECORDING/replay.html; for an .h5 file, "
+                   "STEM_replay.html in the current folder)")
     _model_args(p)
     _sample_args(p)
     _shape_arg(p)

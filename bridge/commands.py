@@ -118,7 +118,7 @@ def apply(args) -> int:
     return 0
 
 
-REPLAY_QUIET = 5.0  # s: off a terminal, a replay shorter than this prints no progress line
+REPLAY_QUIET = 30.0  # s: off a terminal, a replay shorter than this prints no progress line (a log stays quiet)
 
 
 def _replay_progress(label: str):
@@ -367,7 +367,7 @@ class _FitProgress:
         if self.first is None:
             self.first = (p.generation, p.elapsed)
             left = p.max_generations - p.generation
-            if left > 0:
+            if left > 0 and p.generation == 1:  # (a resumed fit starts later: its bar estimates from its pace)
                 each = p.elapsed / max(p.generation, 1)
                 text = (f"bridge fit: the first generation took {duration_text(each)}; the {left} left take about "
                         f"{duration_text(each * left)} more at most (the fit stops earlier when the best error stops "

@@ -14,6 +14,7 @@ work), capped by what is left of a time limit.
 from __future__ import annotations
 
 import math
+import shutil
 import sys
 import time
 from typing import Callable, TextIO
@@ -63,6 +64,8 @@ class Progress:
         now = self.clock()
         if total is not None:
             self.total = total
+        if self.total is not None and done > self.total:  # a budget overrun (Levenberg-Marquardt's Jacobians)
+            self.total = done
         if status is not None:
             self.status = status
         if self._first is None:
@@ -153,15 +156,16 @@ class Progress:
     def _draw(self) -> None:
         from tqdm import tqdm
 
-        if self._bar is None:
-            self._bar = tqdm(total=self.total, desc=self.label, file=self.stream, leave=True, dynamic_ncols=True,
-                             bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix}", mininterval=0.2)
+        if self._bar is None:  # the text right of the bar goes in tqdm's `unit` (its postfix adds a comma)
+            size = shutil.get_terminal_size()  # a terminal that reports no size (0 x 0) gets 80 x 24
+            self._bar = tqdm(total=self.total, desc=self.label, file=self.stream, leave=True,
+                             ncols=size.columns, nrows=size.lines, mininterval=0.2, unit="",
+                             bar_format="{desc}: {percentage:3.0f}%|{bar}| {unit}")
         if self.total is not None and self._bar.total != self.total:
             self._bar.total = self.total
         self._bar.n = self.done
         status = f", {self.status}" if self.status else ""
-        self._bar.set_postfix_str(f"{self.counts()}{status}, {duration_text(self.elapsed)} elapsed, "
-                                  f"{self.eta_text()}", refresh=False)
+        self._bar.unit = f"{self.counts()}{status}, {duration_text(self.elapsed)} elapsed, {self.eta_text()}"
         self._bar.refresh()
 
 
