@@ -356,7 +356,7 @@ class _FitProgress:
 
         self.time_limit = time_limit
         self.bar = Progress("generation", time_limit=time_limit)
-        self.first: tuple[int, float] | None = None  # (generation, elapsed) at the first report
+        self.estimated = False
 
     def __call__(self, p) -> None:
         from .progress import duration_text
@@ -364,11 +364,11 @@ class _FitProgress:
         self.bar(p.generation, p.max_generations,
                  status=f"best e {p.best_e:.6f} (this generation {p.generation_best_e:.6f}), {p.evaluations} "
                         f"candidates, {p.simulations} simulations, {p.failures} failed")
-        if self.first is None:
-            self.first = (p.generation, p.elapsed)
+        if not self.estimated:
+            self.estimated = True
             left = p.max_generations - p.generation
             if left > 0 and p.generation == 1:  # (a resumed fit starts later: its bar estimates from its pace)
-                each = p.elapsed / max(p.generation, 1)
+                each = p.elapsed  # scoring the start values included: an estimate on the safe side
                 text = (f"bridge fit: the first generation took {duration_text(each)}; the {left} left take about "
                         f"{duration_text(each * left)} more at most (the fit stops earlier when the best error stops "
                         "improving)")
@@ -399,9 +399,8 @@ def diagnose(args) -> int:
 
 
 def prove(args) -> int:
-    from .prove.proof import run_proof
-
     from .progress import Progress
+    from .prove.proof import run_proof
 
     progress = Progress("case", time_limit=args.time_limit)
     try:
