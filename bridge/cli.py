@@ -59,6 +59,25 @@ def positive_int(text: str) -> int:
 
 def popsize_int(text: str) -> int:
     return _number(text, int, 2, False, "a whole number >= 2 (an evolution needs two candidates to compare)")
+def _seconds(text: str) -> float:
+    """--time-limit: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds > 0, got {text!r}")
+    return value
+
+
+def _time_limit_arg(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--time-limit", type=_seconds, default=None, metavar="SECONDS",
+                   help=f"after this many seconds {what}, marked partial (default: no limit)")
+
+
+def _shape_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--shape", default=None, metavar="NAME", help="the shape pushed in MIT .h5 files whose name does "
+                   "not follow the dataset's pattern and that have no 'shape' attribute, e.g. rect1")
 
 
 def _sample_args(p: argparse.ArgumentParser) -> None:
@@ -126,26 +145,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("args", nargs="*", help="the action's arguments (object names)")
     p.add_argument("--out", default=None, help="write the successor world state here")
     p = add("infer")
-    p.add_argument("recording", help="recording folder (world.yaml, telemetry, optional observed.csv)")
+    p.add_argument("recording", help="recording folder (world.yaml, telemetry, optional observed.csv) or MIT .h5 file")
     p.add_argument("--world-out", default=None, help="inferred world state (default: out/NAME/world_after.yaml "
-                   "under the current folder, NAME the recording folder's name)")
+                   "under the current folder, NAME the recording folder's name or the .h5 file's stem)")
     p.add_argument("--problem-out", default=None, help="PDDL problem of it (default: problem_after.pddl beside "
                    "--world-out)")
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=positive_float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
     _model_args(p)
     _sample_args(p)
+    _time_limit_arg(p, "wait for no further sample (with --samples): the probabilities are over the samples done")
+    _shape_arg(p)
     _probability_arg(p)
     p = add("demo")
     p.add_argument("--recordings", default=str(REPO_ROOT / "demo" / "recordings"), help="folder of recordings (default: the bundled trials)")
     p.add_argument("--out", default="out/demo", help="where to write inferred states (default: %(default)s)")
     _model_args(p)
     p = add("view")
-    p.add_argument("recording", help="recording folder")
+    p.add_argument("recording", help="recording folder or MIT .h5 file")
     p.add_argument("--out", default=None, help="HTML file (default: out/NAME/replay.html under the current folder, "
-                   "NAME the recording folder's name)")
+                   "NAME the recording folder's name or the .h5 file's stem)")
     _model_args(p)
     _sample_args(p)
+    _shape_arg(p)
     p = add("act")
     p.add_argument("world", help="world state before the action")
     p.add_argument("action", help="action template, e.g. push_over")
@@ -178,6 +200,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.json")
     p.add_argument("--max-duration", type=positive_float, default=None, metavar="S", help="use only the first S seconds of "
                    "each MIT push")
+    _shape_arg(p)
+    _time_limit_arg(p, "start no further generation: the result is the best candidate so far")
     p = add("diagnose")
     p.add_argument("recordings", nargs="+", metavar="RECORDING",
                    help="recording folders (with observed.csv), MIT .h5 files, or folders of .h5 files")
@@ -188,11 +212,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default: up to 2)")
     p.add_argument("--max-duration", type=positive_float, default=None, metavar="S", help="use only the first S seconds of "
                    "each MIT push")
+    _shape_arg(p)
+    _time_limit_arg(p, "try no further candidate: the verdict is the best of what was tried")
     p = add("prove")
     p.add_argument("--size", choices=("small", "full"), default="small", help="small: one case per effect (CI); "
                    "full: three magnitudes, two seeds (default: %(default)s)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder for the generated recordings and proof.json")
     p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default: up to 2)")
+    _time_limit_arg(p, "start no further case: proof.json covers the cases done")
     return parser
 
 

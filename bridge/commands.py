@@ -89,8 +89,10 @@ def _claim(args, files=(), folders=(), *, replaced=(), inputs=()) -> None:
 
 
 def _default_out(recording) -> Path:
-    """out/<recording folder name>: where `infer` and `view` write when not told."""
-    return OUT_ROOT / (Path(recording).resolve().name or "recording")
+    """out/NAME, NAME the recording folder's name or the push file's stem: where `infer` and `view` write when
+    not told."""
+    path = Path(recording).resolve()
+    return OUT_ROOT / ((path.stem if path.is_file() else path.name) or "recording")
 
 
 def _infer_outputs(args) -> tuple[Path, Path]:
@@ -178,22 +180,43 @@ def apply(args) -> int:
     return 0
 
 
-class Progress:
-    """A one-line progress bar on stderr for long replays (silent when stderr is not a terminal)."""
+REPLAY_QUIET = 30.0  # s: off a terminal, a replay shorter than this prints no progress line (a log stays quiet)
 
-    def __init__(self, label: str):
-        self.label, self.last = label, -1
-        self.enabled = sys.stderr.isatty()
 
-    def __call__(self, done: float, total: float) -> None:
-        percent = int(100 * done / total) if total else 100
-        if self.enabled and percent != self.last:
-            self.last = percent
-            print(f"\r{self.label}: {percent:3d}% ({done:.1f} / {total:.1f} s simulated)", end="", file=sys.stderr, flush=True)
+def _replay_progress(label: str):
+    """Progress of one replay, in simulated seconds (a bar on a terminal, plain lines in a log)."""
+    from .progress import Progress
 
-    def close(self) -> None:
-        if self.enabled and self.last >= 0:
-            print(file=sys.stderr)
+    return Progress(label, unit=" s simulated", number=".1f", delay=REPLAY_QUIET)
+
+
+def _is_push_file(path) -> bool:
+    from .rollout.trials import H5_SUFFIXES
+
+    return Path(path).suffix.lower() in H5_SUFFIXES and not Path(path).is_dir()
+
+
+class _Source:
+    """What a command replays: a recording folder's, or an MIT push file's world, telemetry and observations."""
+
+    def __init__(self, path, odb, args):
+        self.path = Path(path)
+        shape = getattr(args, "shape", None)
+        if _is_push_file(path):
+            from .rollout import load_trials
+
+            trial = load_trials([path], odb, shape=shape)[0]
+            self.name, self.world, self.telemetry = trial.name, trial.world, trial.telemetry
+            self.observations = trial.observations
+        else:
+            from .recording.recording import load_recording, recording_world
+
+            if shape is not None:
+                raise BridgeError(f"--shape {shape} names the shape pushed in an MIT .h5 file, but {path} is not one")
+            recording = load_recording(path)
+            self.name, self.telemetry = recording.name, recording.telemetry
+            self.world = recording_world(recording, odb)  # observed objects and telemetry checked against it
+            self.observations = recording.observations
 
 
 def _rollout(recording, odb, args):
@@ -204,7 +227,7 @@ def _rollout(recording, odb, args):
     from .recording.recording import recording_world
     from .rollout import Rollout
 
-    rollout = recorded = Rollout(recording_world(recording, odb), recording.telemetry, name=recording.name)
+    rollout = recorded = Rollout(recording.world, recording.telemetry, name=recording.name)
     for option in ("scene", "params"):
         path = getattr(args, option, None)
         if path:
@@ -215,12 +238,11 @@ def _rollout(recording, odb, args):
 
 
 def _session(recording_path, odb, args, *, label: str, events=None):
-    from .recording.recording import load_recording
     from .teleop import run_session
 
-    recording = load_recording(recording_path)
+    recording = _Source(recording_path, odb, args)
     rollout = _rollout(recording, odb, args)
-    progress = Progress(label)
+    progress = _replay_progress(label)
     try:
         return recording, run_session(rollout, odb, event_period=args.event_period if events else None,
                                       on_event=events, progress=progress)
@@ -249,22 +271,26 @@ def _sampled(recording_path, odb, args, *, label: str, events=None):
     """The recording replayed as it is and `--samples` times with parameters drawn from the uncertainty of the
     --scene / --params files (entries with a std), or else from the object database's ranges."""
     from .params import load_param_file
-    from .recording.recording import load_recording
+    from .progress import Progress
     from .rollout import make_executor
     from .uncertainty import parameters_from_file, sample_session
 
-    recording = load_recording(recording_path)
+    recording = _Source(recording_path, odb, args)
     rollout = _rollout(recording, odb, args)
     drawn = [u for option in ("scene", "params") if getattr(args, option, None)
              for u in parameters_from_file(load_param_file(getattr(args, option)), rollout.world, odb)]
-    progress = Progress(label)
+    time_limit = getattr(args, "time_limit", None)
+    progress = _replay_progress(label)
+    samples = Progress("sample", total=args.samples, time_limit=time_limit)
     try:
         with make_executor(args.executor, odb, workers=args.workers) as executor:
             return recording, sample_session(rollout, odb, args.samples, executor=executor, parameters=drawn or None,
                                              seed=args.seed, event_period=args.event_period if events else None,
-                                             on_event=events, progress=progress)
+                                             on_event=events, progress=progress, sample_progress=samples,
+                                             time_limit=time_limit)
     finally:
         progress.close()
+        samples.close()
 
 
 def _report_failures(session) -> int:
@@ -282,6 +308,8 @@ def infer(args) -> int:
     odb = _odb(args)
     check_min_probability(args.min_probability)
     _domain_name(args)
+    if args.time_limit is not None and not args.samples:
+        raise BridgeError("--time-limit bounds the sampled replays: it needs --samples N")
     events = json_lines(sys.stdout) if args.events else None
     world_out, problem_out = _infer_outputs(args)
     label = f"replaying {Path(args.recording).name}"
@@ -331,13 +359,12 @@ def demo(args) -> int:
 
 
 def view(args) -> int:
-    from .recording.recording import load_recording
     from .sim.viewer import write_replay_html
 
     odb = _odb(args)
     out = Path(args.out) if args.out else _default_out(args.recording) / "replay.html"
     _claim(args, [out], inputs=_model_inputs(args, args.recording))
-    recording = load_recording(args.recording)
+    recording = _Source(args.recording, odb, args)
     r = _rollout(recording, odb, args)
     spread = ()
     if args.samples:  # where the objects end under the drawn parameters, as ghosts
@@ -359,7 +386,7 @@ def fit(args) -> int:
 
     odb = _odb(args)
     _claim(args, folders=[args.out], inputs=[f for f in (args.params, args.scene) if f])
-    trials = load_trials(args.recordings, odb, max_duration=args.max_duration)
+    trials = load_trials(args.recordings, odb, max_duration=args.max_duration, shape=args.shape)
     recorded = [Rollout(t.world, t.telemetry, name=t.name) for t in trials]
     if args.scene:  # fit on top of the model bridge diagnose found: its settings start every replay
         scene = load_param_file(args.scene)
@@ -373,10 +400,15 @@ def fit(args) -> int:
     check_values(spec, recorded, odb)
     out = Path(args.out)
     print(f"bridge fit: {len(trials)} trial(s); free parameters: {', '.join(spec.names) or 'none'}", file=sys.stderr)
-    with make_executor(args.executor, odb, workers=args.workers, scheduler=args.scheduler) as executor:
-        result = fit_parameters(trials, spec, odb=odb, optimizer=args.optimizer, seed=args.seed,
-                                generations=args.generations, popsize=args.popsize, executor=executor,
-                                hold_out=args.hold_out, checkpoint=out, resume=args.resume, progress=_fit_progress)
+    report = _FitProgress(args.time_limit)
+    try:
+        with make_executor(args.executor, odb, workers=args.workers, scheduler=args.scheduler) as executor:
+            result = fit_parameters(trials, spec, odb=odb, optimizer=args.optimizer, seed=args.seed,
+                                    generations=args.generations, popsize=args.popsize, executor=executor,
+                                    hold_out=args.hold_out, checkpoint=out, resume=args.resume, progress=report,
+                                    time_limit=args.time_limit)
+    finally:
+        report.close()
     files = write_report(result, out, trials=trials, odb=odb)
     print(table1(result))
     print(result_summary(result))
@@ -384,29 +416,70 @@ def fit(args) -> int:
     return 0
 
 
-def _fit_progress(p) -> None:
-    print(f"generation {p.generation}/{p.max_generations}: best e {p.best_e:.6f} (this generation {p.generation_best_e:.6f}), "
-          f"{p.evaluations} candidates, {p.simulations} simulations, {p.failures} failed, {p.elapsed:.1f} s",
-          file=sys.stderr, flush=True)
+class _FitProgress:
+    """A fit's generations as a progress bar (plain lines off a terminal), and after the first one an estimate
+    of the whole fit's time."""
+
+    def __init__(self, time_limit: float | None):
+        from .progress import Progress
+
+        self.time_limit = time_limit
+        self.bar = Progress("generation", time_limit=time_limit)
+        self.estimated = False
+
+    def __call__(self, p) -> None:
+        from .progress import duration_text
+
+        self.bar(p.generation, p.max_generations,
+                 status=f"best e {p.best_e:.6f} (this generation {p.generation_best_e:.6f}), {p.evaluations} "
+                        f"candidates, {p.simulations} simulations, {p.failures} failed")
+        if not self.estimated:
+            self.estimated = True
+            left = p.max_generations - p.generation
+            if left > 0 and p.generation == 1:  # (a resumed fit starts later: its bar estimates from its pace)
+                each = p.elapsed  # scoring the start values included: an estimate on the safe side
+                text = (f"bridge fit: the first generation took {duration_text(each)}; the {left} left take about "
+                        f"{duration_text(each * left)} more at most (the fit stops earlier when the best error stops "
+                        "improving)")
+                if self.time_limit is not None:
+                    text += f"; the time limit stops it after {duration_text(self.time_limit)}"
+                else:
+                    text += "; --time-limit SECONDS bounds it"
+                self.bar.write(text)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 def diagnose(args) -> int:
     from .diagnosis.pipeline import diagnose_paths, summary_text
+    from .progress import Progress
 
     _claim(args, folders=[args.out])
-    run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
-                         effects=[e.strip() for e in args.effects.split(",")] if args.effects else None, max_duration=args.max_duration)
+    progress = Progress("diagnosis step", time_limit=args.time_limit)
+    try:
+        run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
+                             effects=[e.strip() for e in args.effects.split(",")] if args.effects else None,
+                             max_duration=args.max_duration, shape=args.shape, time_limit=args.time_limit,
+                             log=progress.write, progress=progress)
+    finally:
+        progress.close()
     print(summary_text(run))
     print(f"wrote {', '.join(str(f) for f in run.files.values())}")
     return 0
 
 
 def prove(args) -> int:
+    from .progress import Progress
     from .prove.proof import run_proof
 
     _claim(args, folders=[args.out])
-    proof = run_proof(args.out, _odb(args), size=args.size, workers=args.workers,
-                      log=lambda m: print(m, file=sys.stderr, flush=True))
+    progress = Progress("case", time_limit=args.time_limit)
+    try:
+        proof = run_proof(args.out, _odb(args), size=args.size, workers=args.workers, log=progress.write,
+                          progress=progress, time_limit=args.time_limit)
+    finally:
+        progress.close()
     print(proof.text())
     print(f"wrote {Path(args.out) / 'proof.json'} and {Path(args.out) / 'proof.md'}")
     return 0

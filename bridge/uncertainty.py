@@ -39,6 +39,7 @@ from .rollout.rollout import Job, Rollout
 from .sim.shapes import mass_properties
 from .sim.simulate import SimOptions
 from .teleop import SessionResult, run_session
+from .timelimit import STOPPED, TimeLimit
 from .values import Fact, Pose
 from .world import WorldState
 
@@ -72,6 +73,9 @@ class SampledSession:
     failures: tuple[str, ...]
     probabilities: dict[Fact, float]  # every fact that held in any successful sample, or in the nominal state
     world: WorldState  # the nominal state, with the probabilities of the facts the samples disagree on
+    requested: int | None = None  # samples asked for (None: as many as were replayed)
+    stopped: str | None = None  # "time limit": fewer samples than requested were replayed
+    time_limit: float | None = None  # s, when one was set
 
     @property
     def samples(self) -> int:
@@ -128,12 +132,18 @@ def sample_session(rollout: Rollout, odb: ObjectDatabase, samples: int, *, execu
                    parameters: Sequence[Uncertain] | None = None, seed: int = 0, method: str = "lhs",
                    options: SimOptions = SimOptions(),
                    event_period: float | None = None, on_event: Callable[[dict], None] | None = None,
-                   progress: Callable[[float, float], None] | None = None) -> SampledSession:
-    """Replay `rollout` once as it is (in this process: on-line events, progress), then `samples` times with
-    drawn parameters on `executor`; `parameters` None: the object database's ranges for what the nominal replay
-    re-evaluated. A replay that fails is counted, not counted in the probabilities."""
+                   progress: Callable[[float, float], None] | None = None,
+                   sample_progress: Callable[[int, int], None] | None = None,
+                   time_limit: float | None = None) -> SampledSession:
+    """Replay `rollout` once as it is (in this process: on-line events, `progress` in simulated seconds), then
+    `samples` times with drawn parameters on `executor` (`sample_progress(done, samples)` after each);
+    `parameters` None: the object database's ranges for what the nominal replay re-evaluated. A replay that
+    fails is counted, not counted in the probabilities. `time_limit` (s, from the call): once it has passed no
+    further sample is waited for (at least one is); the shares are over the samples replayed (`stopped`, and
+    their intervals widen accordingly)."""
     if not isinstance(samples, int) or isinstance(samples, bool) or samples < 1:
         raise BridgeError(f"samples must be a whole number >= 1, got {samples!r}")
+    limit = TimeLimit(time_limit)
     nominal = run_session(rollout, odb, options=options, event_period=event_period, on_event=on_event,
                           progress=progress)
     world = rollout.world
@@ -146,19 +156,32 @@ def sample_session(rollout: Rollout, odb: ObjectDatabase, samples: int, *, execu
     jobs = [Job(apply_model(tuple(Setting(p.kind, p.target, float(v)) for p, v in zip(parameters, row)), rollout,
                             odb, strict=False), replay) for row in draws]
     finals, facts, failures = [], [], []
-    for outcome in executor.run(jobs):
-        if outcome.failed:
-            finals.append(None)
-            facts.append(None)
-            failures.append(outcome.failure)
-            continue
-        r = outcome.result
-        inferred = infer_state(world, odb, r.final_poses, r.final_contacts, r.moved, r.contact_pairs(), time=r.sim_time)
-        finals.append(r.final_poses)
-        facts.append(inferred.world.facts)
+    stopped = None
+    outcomes = executor.iterate(jobs)
+    try:
+        for outcome in outcomes:
+            if outcome.failed:
+                finals.append(None)
+                facts.append(None)
+                failures.append(outcome.failure)
+            else:
+                r = outcome.result
+                inferred = infer_state(world, odb, r.final_poses, r.final_contacts, r.moved, r.contact_pairs(),
+                                       time=r.sim_time)
+                finals.append(r.final_poses)
+                facts.append(inferred.world.facts)
+            if sample_progress is not None:
+                sample_progress(len(facts), samples)
+            if len(facts) < samples and any(f is not None for f in facts) and limit.expired():
+                stopped = STOPPED
+                break
+    finally:
+        outcomes.close()  # cancels the samples not started
     probabilities = fact_probabilities(facts, nominal.inference.world.facts)
-    return SampledSession(nominal, parameters, draws, tuple(finals), tuple(facts), tuple(failures), probabilities,
-                          with_probabilities(nominal.inference.world, probabilities, sum(f is not None for f in facts)))
+    return SampledSession(nominal, parameters, draws[:len(facts)], tuple(finals), tuple(facts), tuple(failures),
+                          probabilities,
+                          with_probabilities(nominal.inference.world, probabilities, sum(f is not None for f in facts)),
+                          requested=samples, stopped=stopped, time_limit=limit.seconds)
 
 
 def fact_probabilities(facts: Sequence[frozenset[Fact] | None], nominal: frozenset[Fact]) -> dict[Fact, float]:
@@ -181,6 +204,10 @@ def spread_text(session: SampledSession) -> str:
     """A few lines for the terminal: what was drawn, how many samples, failures."""
     lines = [f"{len(session.facts)} samples ({METHOD}): {session.samples} replayed"
              + (f", {len(session.failures)} failed (first: {session.failures[0]})" if session.failures else "")]
+    if session.stopped:
+        lines.append(f"  partial: the time limit of {session.time_limit:g} s stopped the sampling after "
+                     f"{len(session.facts)} of {session.requested} samples; the probabilities and their intervals "
+                     f"are over those {session.samples}")
     if session.parameters:
         lines.append("  drawn: " + ", ".join(f"{p.name} {p.mean:.4g} +- {p.sd:.2g}" for p in session.parameters)
                      + f" (from {', '.join(dict.fromkeys(p.source for p in session.parameters))})")
@@ -194,7 +221,9 @@ def spread_text(session: SampledSession) -> str:
 def probability_event(session: SampledSession) -> dict:
     """The closing line of `bridge infer --events --samples N`: every disputed fact's share and interval."""
     n = session.samples
-    return {"t": round(session.nominal.replay.sim_time, 3), "final": True, "samples": n, "probabilities": {
+    return {"t": round(session.nominal.replay.sim_time, 3), "final": True, "samples": n,
+            **({"requested": session.requested, "stopped": session.stopped} if session.stopped else {}),
+            "probabilities": {
         str(f): {"p": round(p, 4), "interval": [round(v, 4) for v in wilson_interval(p, n)]}
         for f, p in sorted(session.world.probabilities.items())}}
 

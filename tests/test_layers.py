@@ -13,6 +13,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "bridge"
 LAYERS = {
     "errors": 0,
     "values": 1, "files": 1, "names": 1, "optim": 1, "probability": 1,  # values, I/O, naming, search: no physics
+    "timelimit": 1,
     "odb": 2,
     "world": 3,
     "recording": 4,
@@ -24,7 +25,7 @@ LAYERS = {
     "fit": 10, "diagnosis": 10,
     "prove": 11,
     "teleop": 12, "enactment": 12, "uncertainty": 12, "check": 12,
-    "commands": 13,
+    "commands": 13, "progress": 13,  # progress: the commands' bars and lines (tqdm); the library takes callbacks
     "cli": 14,
     "__init__": 14,  # the package's re-exports
 }

@@ -196,4 +196,32 @@ def test_bridge_view_draws_the_sampled_final_poses_as_ghosts(tmp_path, capsys):
     assert main(["view", str(rec), "--samples", "4", "--executor", "serial", "--out", str(out)]) == 0
     assert "4 sampled final poses as ghosts" in capsys.readouterr().out
     html = out.read_text()
-    assert all(f"samples/{k}/big_box" in html for k in range(4))
+    # Meshcat's page carries its commands as base64 msgpack (plain JSON in older Drakes)
+    import base64
+    import re
+
+    commands = html + "".join(base64.b64decode(b).decode("latin-1")
+                              for b in re.findall(r'octet-binary;base64,([A-Za-z0-9+/=]+)"', html))
+    assert all(f"samples/{k}/big_box" in commands for k in range(4))
+
+
+@pytest.mark.slow
+def test_bridge_infer_samples_stops_at_its_time_limit_with_the_samples_done(odb, tmp_path, capsys):
+    from bridge.cli import main
+    from bridge.recording.recording import save_recording
+    from bridge.world import load_world_state, save_world_state
+
+    save_world_state(tipping_world(NEAR), tmp_path / "world.yaml")
+    rec = save_recording(tmp_path / "rec", tmp_path / "world.yaml", push()).folder
+    world_out = tmp_path / "after.yaml"
+    argv = ["infer", str(rec), "--samples", "40", "--executor", "serial", "--seed", "1", "--events",
+            "--time-limit", "1", "--world-out", str(world_out)]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    final = json.loads(captured.out.strip().splitlines()[-1])
+    assert final["final"] and final["requested"] == 40 and final["stopped"] == "time limit"
+    assert 1 <= final["samples"] < 40
+    after = load_world_state(world_out, odb)
+    assert after.samples in (0, final["samples"])  # 0: the samples replayed all agreed
+    assert f"partial: the time limit of 1 s stopped the sampling after {final['samples']} of 40 samples" in captured.err
+    assert "\r" not in captured.err and "sample 1/40 (2%)" in captured.err

@@ -33,6 +33,7 @@ from ..errors import DiagnosisError
 from ..params import Model, Parameter, ParameterSet
 from ..params.surfaces import support_of
 from ..rollout.compare import PoseError
+from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
 from .locate import Localisation, locate
 from .runs import Runner, chi2_of
@@ -130,6 +131,11 @@ class Identification:
     simulations: int
     seconds: float
     held_out_localisation: Localisation | None = None
+    stopped: str | None = None  # "time limit": the search was cut short, the verdict is over what was tried
+
+    @property
+    def partial(self) -> bool:
+        return self.stopped is not None
 
     @property
     def winner(self) -> Scored:
@@ -155,10 +161,24 @@ def _error_json(e: PoseError) -> dict[str, float]:
 
 # --- the recipe -----------------------------------------------------------------------------------------------
 def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (), options: Options = Options(),
-             log=None) -> Identification:
+             log=None, progress=None, limit: TimeLimit | None = None) -> Identification:
+    """The recipe above. `log(message)` gets a line per step, `progress(done, total)` the steps done (locate, the
+    friction fit, each screen, each full fit). `limit` (a `TimeLimit`): once it has passed, no further
+    candidate is screened or fitted, the fit under way ends at its best point so far, and the verdict is taken
+    over what was tried (`stopped`, and a note saying so)."""
     started = time.perf_counter()
     sims0 = runner.simulations
     say = log or (lambda message: None)
+    limit = limit or TimeLimit()
+    step = [0, None]
+
+    def advance(total: int | None = None) -> None:
+        step[0] += 1
+        if total is not None:
+            step[1] = total
+        if progress is not None:
+            progress(step[0], step[1])
+
     if not train:
         raise DiagnosisError("identify needs at least one training recording")
     ev = Evaluator(runner, train)
@@ -180,6 +200,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
            f"{sum(f.significant for f in loc.forces)} of {len(loc.forces)} recording(s)"
            if loc.force_scale() is not None else ""))
     if not loc.any_significant:
+        advance(1)
         notes.append("no recording carries a residual above the noise floor: nothing to fit")
         scored = _score([none], 1.0)
         scored = _held_out(runner, held_out, scored)
@@ -188,17 +209,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
 
     allowed = set(options.effects or EFFECTS) - {"none"}
     focus = ranked_objects[:1]
-    # 2. the ordinary parameters: friction of the object carrying the residual and of the surface it slides on
-    #    (Drake combines the two per pair: the surface's value changes only that pair, the object's every pair)
-    friction_targets = [t for t in (support_of(world, odb, focus[0]), focus[0]) if t]
-    friction_params = [Parameter.of("friction", t, world, odb, effect="friction") for t in friction_targets]
-    base_space = ParameterSet(tuple(friction_params), "the ordinary parameters")
-    base_fit = fit(ev, base_space, np.zeros(base_space.dim), max_iterations=options.max_iterations + FRICTION_EXTRA,
-                   optimizer=options.optimizer)
-    friction_scored = _from_fit("friction", None, base_fit, world, odb)
-    say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}")
-
-    # 3. screen candidates (each together with the friction coefficients), likely ones first
+    # the candidates of step 3 (each effect on each target it may apply to), likely ones first
     candidates = []
     for name in EFFECTS:
         if name in ("none", "friction") or name not in allowed:
@@ -207,10 +218,28 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         for target in effect.targets(world, odb, focus):
             candidates.append(Candidate(name, target, float(effect.signature(evidence, target))))
     candidates.sort(key=lambda c: -c.prior)
+    advance(2 + len(candidates) + min(options.max_full_fits, len(candidates)))
+    # 2. the ordinary parameters: friction of the object carrying the residual and of the surface it slides on
+    #    (Drake combines the two per pair: the surface's value changes only that pair, the object's every pair)
+    friction_targets = [t for t in (support_of(world, odb, focus[0]), focus[0]) if t]
+    friction_params = [Parameter.of("friction", t, world, odb, effect="friction") for t in friction_targets]
+    base_space = ParameterSet(tuple(friction_params), "the ordinary parameters")
+    base_fit = fit(ev, base_space, np.zeros(base_space.dim), max_iterations=options.max_iterations + FRICTION_EXTRA,
+                   optimizer=options.optimizer, should_stop=limit.expired)
+    friction_scored = _from_fit("friction", None, base_fit, world, odb)
+    say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}"
+        + (" (cut short by the time limit)" if base_fit.stopped else ""))
+    advance()
+
+    # 3. screen candidates (each together with the friction coefficients), likely ones first
     screened = []
     fitted_friction = base_fit.values()  # every candidate starts from the fitted coefficients
     nominal_friction = {p.name: p.start for p in friction_params}
-    for c in candidates:
+    for k, c in enumerate(candidates):
+        if limit.expired():
+            screened += [Candidate(r.effect, r.target, r.prior, math.inf, {}, "not screened: time limit")
+                         for r in candidates[k:]]
+            break
         effect = get_effect(c.effect)
         space = _space(friction_params, effect, c.target, world, odb)
         # each seed with the fitted coefficients and with the nominal ones (the friction fit may have taken up
@@ -232,6 +261,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                     x, chi2 = y, c2
         screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x))))
         say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}")
+        advance()
 
     reference = min(none_chi2, base_fit.chi2)
 
@@ -240,32 +270,48 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         return -(gain * (0.5 + 0.5 * c.prior))
 
     order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
+    full = order[:options.max_full_fits]
+    step[1] = step[0] + len(full)  # what is left: the full fits
     # 4. full fits, each effect together with the friction coefficients, from the screened point
     fitted: list[Scored] = _held_out(runner, held_out, [none, friction_scored])
     # every one of the best `max_full_fits`: a single Gauss-Newton step is a rough screen (an off-centre weight in
     # a tall box screened at no gain and fitted to half the residual of the screen's favourite)
-    for c in order[:options.max_full_fits]:
+    fits_done = 0
+    for c in full:
+        if limit.expired():
+            break
         effect = get_effect(c.effect)
         space = _space(friction_params, effect, c.target, world, odb)
         # start from the screened point, or from the fitted friction with the screened effect if that is better
         starts = [space.to_normal(c.start), space.to_normal({**c.start, **base_fit.values()})]
         chis = [ev.chi2(_model(space, x)) for x in starts]
         result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations,
-                     optimizer=options.optimizer)
+                     optimizer=options.optimizer, should_stop=limit.expired)
         scored = _held_out(runner, held_out, [_from_fit(c.effect, c.target, result, world, odb)])[0]
         frictions = {s.name: s.value for s in scored.model if s.kind == "friction" and s.effect == "friction"}
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
         x_f = base_space.to_normal(frictions)
         if ev.chi2(_model(base_space, x_f)) < fitted[1].chi2:
-            base_fit = fit(ev, base_space, x_f, max_iterations=FRICTION_EXTRA, optimizer=options.optimizer)
+            base_fit = fit(ev, base_space, x_f, max_iterations=FRICTION_EXTRA, optimizer=options.optimizer,
+                           should_stop=limit.expired)
             fitted[1] = _held_out(runner, held_out, [_from_fit("friction", None, base_fit, world, odb)])[0]
             say(f"friction refitted from {c.effect}'s coefficients: {_fmt(base_fit.values())}, "
                 f"rms {fitted[1].rms:.1f}")
         fitted.append(scored)
         ok = _acceptable(scored, fitted[0], fitted[1], bool(held_out), world, odb) is None
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
-            f"{'' if ok else ' - not confirmed'}")
+            f"{'' if ok else ' - not confirmed'}" + (" (cut short by the time limit)" if result.stopped else ""))
+        fits_done += 1
+        advance()
+    stopped = STOPPED if limit.stopped_after is not None else None
+    if stopped:
+        tried = sum(1 for c in screened if c.note != "not screened: time limit")
+        notes.append(f"partial: {limit.text()} stopped the search after screening {tried} of {len(candidates)} "
+                     f"candidate(s) and fitting {fits_done} fully (of up to "
+                     f"{min(options.max_full_fits, len(candidates))}); the verdict is over what was tried, an effect "
+                     "not tried may explain more")
+        say(notes[-1])
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
     scored = _score(fitted, tau)
     verdict, check = _verdict(scored, bool(held_out), world, odb)
@@ -276,7 +322,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                      f"{runner.failures[0][0]}: {runner.failures[0][1]})")
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
-                          held_loc)
+                          held_loc, stopped)
 
 
 def _space(friction: Sequence[Parameter], effect, target: str, world, odb) -> ParameterSet:

@@ -17,6 +17,7 @@ from ..files import Content, write_atomic
 from ..params import Model, Parameter, ParameterSet, kind_named, param_file_text
 from ..rollout.executors import Executor, make_executor
 from ..rollout.trials import Trial
+from ..timelimit import TimeLimit
 from .identify import Identification, Options, identify
 from .locate import Localisation, locate
 from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, plot_paths, plot_residuals, plot_scores, report_markdown,
@@ -49,10 +50,15 @@ def held_out_indices(n: int, held_out: int | None) -> list[int]:
 def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path | None, *,
                   held_out: int | None = None, workers: int | None = None, options: Options = Options(),
                   plots: bool = True, executor: Executor | None = None,
-                  log: Callable[[str], None] | None = None) -> DiagnosisRun:
+                  log: Callable[[str], None] | None = None,
+                  progress: Callable[[int, int | None], None] | None = None,
+                  time_limit: float | None = None) -> DiagnosisRun:
     """Diagnose `trials`; write outputs under `out` when given. Simulations run on `executor` (default: a process
-    pool of `workers`, serial for one)."""
+    pool of `workers`, serial for one). `progress(done, total)` counts the steps of the search (`identify`);
+    `time_limit` (s, from the call) stops the search there with the best so far: diagnosis.json then says
+    "stopped": "time limit" and the report that the verdict is partial."""
     started = time.perf_counter()
+    limit = TimeLimit(time_limit)
     if not trials:
         raise DiagnosisError("no recordings to diagnose")
     prepared = [prepare(t, odb, RESIDUAL_RATE) for t in trials]
@@ -63,7 +69,7 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     executor = executor or make_executor("serial" if n == 1 else "process", odb, workers=n)
     try:
         runner = Runner(prepared, odb, executor)
-        ident = identify(runner, train, held, options, log=log)
+        ident = identify(runner, train, held, options, log=log, progress=progress, limit=limit)
         after = None
         if out is not None and plots and ident.verdict != "none":
             after = locate(runner, list(range(len(prepared))), model=ident.winner.model)
@@ -75,6 +81,7 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     failures = {"count": len(runner.failures), "first": [f"{t}: {m}" for t, m in runner.failures[:3]]}
     if out is None:
         data = diagnosis_json(ident, failures=failures)
+        data.update(limit.to_json(ident.partial))
         return DiagnosisRun(ident, data, files, after)
     out = Path(out)
     scene_path = out / SCENE_FILE
@@ -85,6 +92,7 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
                                               "recordings": list(ident.train) + list(ident.held_out)},
                                              std=ident.winner.model_std)
     data = diagnosis_json(ident, scene_file=SCENE_FILE if others[scene_path] else None, failures=failures)
+    data.update(limit.to_json(ident.partial))
     data["seconds"] = round(time.perf_counter() - started, 2)
     figures: dict[Path, Content] = {}
     if plots:
@@ -139,23 +147,29 @@ def _plots(ident: Identification, after: Localisation | None, out: Path) -> dict
 
 def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | Path, *, held_out: int | None = None,
                    workers: int | None = None, effects: Sequence[str] | None = None, max_duration: float | None = None,
-                   quiet: bool = False) -> DiagnosisRun:
-    """Load recordings (folders, MIT .h5 files, folders of .h5 files) and diagnose them."""
+                   quiet: bool = False, shape: str | None = None, time_limit: float | None = None,
+                   log: Callable[[str], None] | None = None,
+                   progress: Callable[[int, int | None], None] | None = None) -> DiagnosisRun:
+    """Load recordings (folders, MIT .h5 files, folders of .h5 files; `shape` for .h5 files whose name does not
+    tell theirs) and diagnose them. `log` defaults to stderr (nothing when `quiet`)."""
     from ..rollout.trials import load_trials
 
     # MIT pushes at their full motion-capture rate: the noise is estimated from every sample, the residual is
     # compared at RESIDUAL_RATE
     options = Options(effects=tuple(effects) if effects else None)  # checked before any recording is read
-    trials = load_trials(paths, odb, max_duration=max_duration, observation_rate=250.0)
-    log = None if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-    return run_diagnosis(trials, odb, out, held_out=held_out, workers=workers, options=options, log=log)
+    trials = load_trials(paths, odb, max_duration=max_duration, observation_rate=250.0, shape=shape)
+    if log is None and not quiet:
+        log = lambda m: print(m, file=sys.stderr, flush=True)  # noqa: E731
+    return run_diagnosis(trials, odb, out, held_out=held_out, workers=workers, options=options, log=log,
+                         progress=progress, time_limit=time_limit)
 
 
 def summary_text(run: DiagnosisRun) -> str:
     ident, data = run.identification, run.data
     w = ident.winner
     lines = [f"verdict: {ident.verdict}" + (f" on {w.target}: " + ", ".join(
-        f"{k} = {v:.4g} +- {w.std.get(k, math.nan):.2g}" for k, v in w.params.items()) if ident.verdict != "none" else "")]
+        f"{k} = {v:.4g} +- {w.std.get(k, math.nan):.2g}" for k, v in w.params.items()) if ident.verdict != "none" else "")
+             + (" (partial: stopped at the time limit)" if ident.partial else "")]
     if ident.runner_up is not None:
         lines.append(f"runner-up: {ident.runner_up.effect} on {ident.runner_up.target} (margin {ident.margin:.1f})")
     e = data["error"]

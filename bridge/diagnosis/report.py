@@ -105,7 +105,12 @@ def noise_summary(loc: Localisation) -> dict[str, float]:
 def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Sequence[str]) -> str:
     w, r = ident.winner, ident.runner_up
     lines = ["# Diagnosis", "",
-             f"**Verdict: `{ident.verdict}`**" + (f" on `{w.target}`" if ident.verdict != "none" else ""), ""]
+             f"**Verdict: `{ident.verdict}`**" + (f" on `{w.target}`" if ident.verdict != "none" else "")
+             + (" (partial)" if ident.partial else ""), ""]
+    if ident.partial:
+        limit = data.get("time_limit_s")
+        lines += [f"**Partial result: the time limit{f' of {limit:g} s' if limit else ''} stopped the search** "
+                  "before every candidate was screened and fitted; the verdict is the best of what was tried.", ""]
     if ident.verdict != "none":
         params = ", ".join(f"{k} = {v:.4g} ± {w.std.get(k, math.nan):.2g}" for k, v in w.params.items())
         lines += [f"- parameters: {params}"]

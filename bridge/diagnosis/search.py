@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -59,6 +59,7 @@ class FitResult:
     jacobian: np.ndarray | None
     runs: tuple[Run, ...]
     evaluations: int  # models evaluated (each on every training trial)
+    stopped: bool = False  # cut short by `should_stop` (the best point so far)
 
     @property
     def chi2(self) -> float:
@@ -90,9 +91,10 @@ class FitResult:
 
 
 def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: int = 6,
-        optimizer: str = "lm") -> FitResult:
+        optimizer: str = "lm", should_stop: Callable[[], bool] | None = None) -> FitResult:
     """Fit `space` from x0 (normalised) with `optimizer` (`lm`: Levenberg-Marquardt, scipy's bounded trust-region
-    solver; `cmaes`/`es`: `max_iterations` generations); keeps the best point seen."""
+    solver; `cmaes`/`es`: `max_iterations` generations); keeps the best point seen. `should_stop` (asked between
+    evaluations) ends the fit early with the best point so far."""
     before = len(ev.cache)
     if space.dim == 0:
         runs = ev.runs(space.model())
@@ -100,14 +102,15 @@ def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: i
     lower, upper = space.normal_bounds()
     residuals = ev.residuals(space)
     if optimizer == "lm":
-        result = levenberg_marquardt(residuals, x0, lower, upper, max_iterations=max_iterations)
-        x, f, J = result.x, result.vector, result.jacobian
+        result = levenberg_marquardt(residuals, x0, lower, upper, max_iterations=max_iterations,
+                                     should_stop=should_stop)
+        x, f, J, stopped = result.x, result.vector, result.jacobian, result.stopped
     else:
         found = minimise(optimizer, lambda values: [vector_of(r) for r in ev.runs_many([space.model(v) for v in values])],
-                         space, space.from_normal(x0), iterations=max_iterations)
-        x, f = space.to_normal(found.values), found.vector
-        J = jacobian(residuals, x, f, upper)
-    return FitResult(space, x, f, J, ev.runs(space.model(space.from_normal(x))), len(ev.cache) - before)
+                         space, space.from_normal(x0), iterations=max_iterations, should_stop=should_stop)
+        x, f, stopped = space.to_normal(found.values), found.vector, found.stopped
+        J = None if stopped else jacobian(residuals, x, f, upper)
+    return FitResult(space, x, f, J, ev.runs(space.model(space.from_normal(x))), len(ev.cache) - before, stopped)
 
 
 def screen(ev: Evaluator, space: ParameterSet, x0: np.ndarray) -> tuple[np.ndarray, float]:

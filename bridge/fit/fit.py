@@ -31,6 +31,7 @@ from ..rollout.compare import DEFAULT_C, PoseError
 from ..rollout.executors import Executor, make_executor
 from ..rollout.rollout import Rollout
 from ..rollout.trials import Trial
+from ..timelimit import STOPPED, TimeLimit
 from .evaluate import Evaluation, TrialError, evaluate
 
 CHECKPOINT_FILE = "checkpoint.json"
@@ -104,6 +105,14 @@ class FitResult:
     workers: int = 1
     notes: tuple[str, ...] = field(default=())
     std: Mapping[str, float] = field(default_factory=dict)  # 1 sigma of each fitted value (see `_uncertainty`)
+    stopped: str | None = None  # "time limit": the search was cut short, `values` is the best candidate so far
+    time_limit: float | None = None  # s, when one was set
+    stopped_after: float | None = None  # s of search when the time limit stopped it
+    max_generations: int | None = None  # what the optimiser was allowed
+
+    @property
+    def partial(self) -> bool:
+        return self.stopped is not None
 
     @property
     def fitted_spec(self) -> ParameterSet:
@@ -142,15 +151,18 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
                    executor: Executor | None = None, hold_out: int | None = None,
                    checkpoint: str | Path | None = None, resume: bool = False, patience: int = 8, tol: float = 1e-6,
                    target_error: float | None = None, c: float = DEFAULT_C,
-                   progress: Callable[[Progress], None] | None = None) -> FitResult:
+                   progress: Callable[[Progress], None] | None = None, time_limit: float | None = None) -> FitResult:
     """Fit the free parameters of `spec` to `trials` (see the module docstring).
 
     `checkpoint` is a folder: after every generation DIR/checkpoint.json holds the optimiser and the bookkeeping;
     `resume` continues from it (it must be the same fit: trials, parameters, optimiser, seed; not for "lm").
     Early stop: no improvement of the best error by more than `tol` (m) for `patience` generations, or the best
-    error at or below `target_error`.
+    error at or below `target_error`. `time_limit` (s, from the call): no new generation starts once it has
+    passed (the first always runs); the result is the best candidate so far, scored as usual, with `stopped` =
+    "time limit" (a checkpointed es/cmaes fit can be continued with `resume`).
     """
     started = wallclock.perf_counter()
+    limit = TimeLimit(time_limit)
     check_trials(trials)
     if not spec.free:
         raise FitError("the parameter file has no free parameter (entries with bounds)", source=spec.source)
@@ -200,9 +212,14 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
                                   wallclock.perf_counter() - started))
             return batch
 
+        stopped = None
         if optimizer == "lm":
-            opt.run(spec, generation)
+            opt.run(spec, generation, should_stop=limit.expired)
+            stopped = STOPPED if opt.stopped_by_limit else None
         while not opt.done:
+            if opt.generation > 0 and limit.expired():
+                stopped = STOPPED
+                break
             candidates = opt.ask()
             generation([spec.from_unit(u) for u in candidates], candidates)
         best = spec.from_unit(opt.best_x)
@@ -221,9 +238,12 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
         trial_errors_before=tuple(before_rows), trial_errors_after=tuple(after_rows),
         optimizer=optimizer, seed=seed, generations=opt.generation, evaluations=opt.evaluations,
         simulations=state.simulations + len(after_rows), failures=state.failures,
-        stop_reason=opt.stop_reason or "", history=opt.history, generation_errors=tuple(state.generation_errors),
+        stop_reason=(f"{limit.text()} reached after {opt.generation} of {max_generations} generations" if stopped
+                     else opt.stop_reason or ""),
+        history=opt.history, generation_errors=tuple(state.generation_errors),
         wall_time=wallclock.perf_counter() - started, executor=executor.kind, workers=executor.workers,
-        notes=tuple(dict.fromkeys(n for t in trials for n in t.notes)), std=_uncertainty(spec, opt))
+        notes=tuple(dict.fromkeys(n for t in trials for n in t.notes)), std=_uncertainty(spec, opt),
+        stopped=stopped, time_limit=limit.seconds, stopped_after=limit.stopped_after, max_generations=max_generations)
 
 
 def _uncertainty(spec: ParameterSet, opt) -> dict[str, float]:
@@ -274,8 +294,9 @@ class _LeastSquaresRun(Tracked):
         self.rule = rule
         self._progress = OptimizerProgress(rule)
         self._stopped: str | None = None
+        self.stopped_by_limit = False
 
-    def run(self, spec: ParameterSet, generation: Callable) -> None:
+    def run(self, spec: ParameterSet, generation: Callable, should_stop: Callable[[], bool] | None = None) -> None:
         lower, upper = spec.normal_bounds()
 
         def residuals(xs: Sequence[np.ndarray]) -> list[np.ndarray]:
@@ -283,10 +304,13 @@ class _LeastSquaresRun(Tracked):
             return [b.vector for b in generation(values, [spec.to_unit(v) for v in values])]
 
         self._found = levenberg_marquardt(residuals, spec.to_normal(spec.start_values()), lower, upper,
-                                          max_iterations=self.rule.max_generations)
+                                          max_iterations=self.rule.max_generations, should_stop=should_stop)
+        self.stopped_by_limit = self._found.stopped
         self._stopped = f"Levenberg-Marquardt: {self.rule.max_generations} solver evaluations at most"
 
     def std(self, spec: ParameterSet) -> dict[str, float]:
+        if self._found.jacobian is None:  # stopped before a Jacobian was evaluated
+            return {}
         J, r = self._found.jacobian, self._found.vector
         s2 = float(r @ r) / max(1, r.size - spec.dim)
         sd = np.sqrt(np.maximum(np.diag(np.linalg.pinv(J.T @ J)), 0.0) * s2) * spec.steps
@@ -377,6 +401,8 @@ def result_summary(result: FitResult) -> str:
     lines = [f"{result.optimizer}: {result.generations} generations, {result.evaluations} candidates, "
              f"{result.simulations} simulations ({result.failures} failed), {result.wall_time:.1f} s on "
              f"{result.workers} {result.executor} worker(s); stopped: {result.stop_reason}"]
+    if result.partial:
+        lines.append("  partial result: the best candidate when the time limit stopped the search (not converged)")
     for name, value in result.values.items():
         lines.append(f"  {name} = {value:.6g} (start {result.start[name]:.6g})")
     lines.append(f"  fitted trials ({len(result.fit_trials)}): e {result.before.e:.5f} -> {result.after.e:.5f}")

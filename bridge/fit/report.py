@@ -34,7 +34,8 @@ def write_report(result: FitResult, out: str | Path, *, trials: Sequence[Trial] 
     them by name. Trajectories need `trials` and `odb` (a few extra replays, in this process)."""
     out = Path(out)
     header = (f"fitted by bridge fit ({result.optimizer}, seed {result.seed}, {result.generations} generations) on "
-              f"{len(result.fit_trials)} trial(s): e {result.before.e:.6f} -> {result.after.e:.6f} m")
+              f"{len(result.fit_trials)} trial(s): e {result.before.e:.6f} -> {result.after.e:.6f} m"
+              + (f"\npartial: {result.stop_reason}; the best candidate so far" if result.partial else ""))
     contents: dict[str, str | bytes | None] = {
         PARAMS_FILE: param_file_text(result.fitted_spec, header=header),
         FIT_FILE: json.dumps(fit_json(result), indent=1) + "\n",
@@ -80,6 +81,8 @@ def fit_json(result: FitResult) -> dict[str, Any]:
         "optimizer": result.optimizer, "seed": result.seed, "generations": result.generations,
         "evaluations": result.evaluations, "simulations": result.simulations, "failures": result.failures,
         "stop_reason": result.stop_reason, "wall_time_s": round(result.wall_time, 3),
+        "max_generations": result.max_generations, "stopped": result.stopped, "time_limit_s": result.time_limit,
+        **({"stopped_after_s": round(result.stopped_after, 2)} if result.stopped_after is not None else {}),
         "executor": result.executor, "workers": result.workers,
         "fit_trials": list(result.fit_trials), "held_out_trials": list(result.held_out),
         "table1": {"initial_generation": {"params": spec.as_dict(first.best_values), **_errors(first.best)},
@@ -129,6 +132,9 @@ def table1(result: FitResult) -> str:
     lines.append("")
     lines.append(f"Best individuals of the first and the last generation ({result.optimizer}, seed {result.seed}, "
                  f"{len(result.fit_trials)} fitted trial(s)); e = sqrt(mean(e_t^2 + c e_R^2)), c = 0.01 by default.")
+    if result.partial:
+        lines.append(f"Partial result: {result.stop_reason}; the last row is the best candidate so far, not a "
+                     "converged fit.")
     return "\n".join(lines)
 
 

@@ -56,25 +56,31 @@ class Minimum:
     values: np.ndarray  # parameter units
     vector: np.ndarray  # the residual there
     jacobian: np.ndarray | None = None  # in normalised coordinates (Levenberg-Marquardt only)
+    stopped: bool = False  # `should_stop` ended the search early
 
 
 def minimise(name: str, residuals: Callable[[Sequence[np.ndarray]], list[np.ndarray]], parameters, start: np.ndarray,
-             *, iterations: int = 6, seed: int = 0, sigma0: float = 0.15) -> Minimum:
+             *, iterations: int = 6, seed: int = 0, sigma0: float = 0.15,
+             should_stop: Callable[[], bool] | None = None) -> Minimum:
     """Minimise |residuals(values)|^2 over the free parameters of `parameters` (a `bridge.params.ParameterSet`)
     from `start` (parameter units) with `name`: `lm` (at most `iterations` evaluations of the solver), or `es` /
-    `cmaes` (`iterations` generations). `residuals` takes a batch of value vectors."""
+    `cmaes` (`iterations` generations). `residuals` takes a batch of value vectors. `should_stop` is asked
+    between evaluations (after the first): when it says so, the best point so far is returned (`stopped`)."""
     if name == "lm":
         lower, upper = parameters.normal_bounds()
 
         def in_normal(xs):
             return residuals([parameters.from_normal(x) for x in xs])
 
-        fit = levenberg_marquardt(in_normal, parameters.to_normal(start), lower, upper, max_iterations=iterations)
-        return Minimum(parameters.from_normal(fit.x), fit.vector, fit.jacobian)
+        fit = levenberg_marquardt(in_normal, parameters.to_normal(start), lower, upper, max_iterations=iterations,
+                                  should_stop=should_stop)
+        return Minimum(parameters.from_normal(fit.x), fit.vector, fit.jacobian, fit.stopped)
     opt = make_optimizer(name, np.clip(parameters.to_unit(start), 0.0, 1.0), sigma0, seed,
                          max_generations=iterations, patience=iterations)
     best: tuple[float, np.ndarray, np.ndarray] | None = None
     while not opt.done:
+        if best is not None and should_stop is not None and should_stop():
+            return Minimum(best[1], best[2], stopped=True)
         candidates = opt.ask()
         values = [parameters.from_unit(u) for u in candidates]
         vectors = residuals(values)

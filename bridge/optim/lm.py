@@ -25,6 +25,7 @@ class LeastSquares:
     x: np.ndarray
     vector: np.ndarray
     jacobian: np.ndarray | None
+    stopped: bool = False  # `should_stop` ended the search early (the jacobian may then be None)
 
     @property
     def chi2(self) -> float:
@@ -48,38 +49,53 @@ def jacobian(residuals: Residuals, x: np.ndarray, f0: np.ndarray, upper: np.ndar
     return J
 
 
+class _Stop(Exception):
+    """`should_stop` said so: leave the solver, keep the best point so far."""
+
+
 def levenberg_marquardt(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray, *,
-                        max_iterations: int = 6) -> LeastSquares:
+                        max_iterations: int = 6, should_stop: Callable[[], bool] | None = None) -> LeastSquares:
     """Minimise |residuals(x)|^2 from x0 within [lower, upper]; returns the best point evaluated, its residual and
-    the Jacobian there."""
+    the Jacobian there. `should_stop` is asked before every evaluation after the first: when it says so, the
+    search ends with the best point so far (`stopped`; its Jacobian only if it was evaluated)."""
     x0 = np.clip(np.asarray(x0, dtype=float), lower, upper)
     seen: dict[bytes, np.ndarray] = {}
     jacobians: dict[bytes, np.ndarray] = {}
 
+    def check() -> None:
+        if seen and should_stop is not None and should_stop():
+            raise _Stop
+
     def fun(x):
         key = np.asarray(x, dtype=float).tobytes()
         if key not in seen:
+            check()
             seen[key] = residuals([np.asarray(x, dtype=float)])[0]
         return seen[key]
 
     def jac(x):
         key = np.asarray(x, dtype=float).tobytes()
         if key not in jacobians:
-            jacobians[key] = jacobian(residuals, np.asarray(x, dtype=float), fun(x), upper)
+            f = fun(x)
+            check()
+            jacobians[key] = jacobian(residuals, np.asarray(x, dtype=float), f, upper)
         return jacobians[key]
 
+    stopped = False
     try:
         least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0, max_nfev=max_iterations,
                       xtol=1e-3, ftol=1e-4, gtol=1e-6)
     except (ValueError, np.linalg.LinAlgError):
         pass  # keep the best point evaluated so far
+    except _Stop:
+        stopped = True
     best_key = min(seen, key=lambda k: float(seen[k] @ seen[k])) if seen else x0.tobytes()
     x_best = np.frombuffer(best_key, dtype=float).copy() if seen else x0
     f_best = fun(x_best)
     J = jacobians.get(best_key)
-    if J is None:
+    if J is None and not stopped:
         J = jacobian(residuals, x_best, f_best, upper)
-    return LeastSquares(x_best, f_best, J)
+    return LeastSquares(x_best, f_best, J, stopped)
 
 
 def gauss_newton_step(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray

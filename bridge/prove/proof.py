@@ -28,6 +28,7 @@ from ..errors import DiagnosisError
 from ..files import write_atomic, write_set
 from ..odb import ObjectDatabase
 from ..rollout.executors import Executor, make_executor
+from ..timelimit import TimeLimit
 from .generate import generate_case
 from .scenes import MAGNITUDES, PLANAR_EFFECTS, TABLETOP_EFFECTS, Case
 
@@ -126,6 +127,12 @@ class ProofResult:
     size: str
     results: tuple[CaseResult, ...]
     seconds: float
+    planned: int | None = None  # cases planned (None: as many as results)
+    limit: dict[str, Any] | None = None  # `TimeLimit.to_json`: "stopped", "time_limit_s", ...
+
+    @property
+    def partial(self) -> bool:
+        return bool(self.limit and self.limit.get("stopped"))
 
     @property
     def rows(self) -> list[dict[str, Any]]:
@@ -138,10 +145,17 @@ class ProofResult:
         return summarise(self.rows)
 
     def text(self) -> str:
-        return proof_text(self.rows)
+        text = proof_text(self.rows)
+        if self.partial:
+            text = (f"partial: the time limit of {self.limit['time_limit_s']:g} s stopped the proof after "
+                    f"{len(self.results)} of {self.planned} case(s)\n\n" + text)
+        return text
 
     def to_json(self) -> dict[str, Any]:
-        return proof_json(self.size, self.rows, self.seconds)
+        data = proof_json(self.size, self.rows, self.seconds)
+        data["cases_planned"] = self.planned if self.planned is not None else len(self.results)
+        data.update(self.limit or {"stopped": None, "time_limit_s": None})
+        return data
 
 
 # --- figures from case rows (CaseResult.to_json(); also what the benchmark's progress.json holds) ----------------
@@ -243,7 +257,11 @@ def run_case(case: Case, odb: ObjectDatabase, folder: Path, settings: ProofSetti
 
 
 def run_proof(out: str | Path, odb: ObjectDatabase, *, size: str = "small", cases: Sequence[Case] | None = None,
-              workers: int | None = None, log: Callable[[str], None] | None = None) -> ProofResult:
+              workers: int | None = None, log: Callable[[str], None] | None = None,
+              progress: Callable[[int, int], None] | None = None, time_limit: float | None = None) -> ProofResult:
+    """Every case of `size` (or `cases`), one after the other; proof.json is rewritten after each case.
+    `progress(done, total)` after each case. `time_limit` (s, from the call): no case starts once it has passed
+    (the first always runs); proof.json and proof.md then cover the cases done and say "stopped": "time limit"."""
     settings = SETTINGS[size] if size in SETTINGS else None
     if settings is None:
         raise DiagnosisError(f"unknown proof size {size!r}; sizes: {', '.join(SIZES)}")
@@ -251,18 +269,30 @@ def run_proof(out: str | Path, odb: ObjectDatabase, *, size: str = "small", case
     out.mkdir(parents=True, exist_ok=True)
     cases = list(cases) if cases is not None else proof_cases(size)
     started = time.perf_counter()
+    limit = TimeLimit(time_limit)
+    stopped = False
     results = []
     n = workers or default_workers()
     with make_executor("serial" if n == 1 else "process", odb, workers=n) as executor:  # one pool for every case
         for k, case in enumerate(cases):
+            if k > 0 and limit.expired():
+                stopped = True
+                if log:
+                    log(f"{limit.text()} reached: stopping after {k} of {len(cases)} case(s)")
+                break
             result = run_case(case, odb, out / case.name, settings, executor=executor)
             results.append(result)
             if log:
                 log(f"[{k + 1}/{len(cases)}] {case.name}: verdict {result.verdict} (target ok {result.target_ok}, "
                     f"params {result.recovery.text}), {result.seconds:.0f} s")
-            partial = ProofResult(size, tuple(results), time.perf_counter() - started)
+            if progress is not None:
+                progress(k + 1, len(cases))
+            partial = ProofResult(size, tuple(results), time.perf_counter() - started, len(cases),
+                                  limit.to_json(False))
             write_atomic(out / "proof.json", json.dumps(partial.to_json(), indent=2) + "\n")
-    proof = ProofResult(size, tuple(results), time.perf_counter() - started)
+    proof = ProofResult(size, tuple(results), time.perf_counter() - started, len(cases),
+                        limit.to_json(stopped))
+    title = "# Proof: concealed effects diagnosed blind" + (" (partial)" if stopped else "")
     write_set({out / "proof.json": json.dumps(proof.to_json(), indent=2) + "\n",
-               out / "proof.md": "# Proof: concealed effects diagnosed blind\n\n```\n" + proof.text() + "\n```\n"})
+               out / "proof.md": title + "\n\n```\n" + proof.text() + "\n```\n"})
     return proof

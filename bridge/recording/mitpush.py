@@ -11,6 +11,10 @@ poses themselves are in order). Such rows are dropped (`max_time_jitter`, defaul
 
 Frames: the object's pose frame is not always the mesh frame (README: about 90 degrees for ellip3 and hex).
 `estimate_frame_yaw` measures the offset from where the recorded pusher touches the outline.
+
+Names: the dataset's file names tell the shape pushed (and the push: surface, speed, side, ...). A file under
+another name is read too: its shape then comes from a `shape` attribute of the file's root, if it has one, or
+from the caller (`shape=`, the command line's --shape); the other push parameters are then unknown (None).
 """
 from __future__ import annotations
 
@@ -44,15 +48,17 @@ _COLUMNS = {"tip_pose": ("time", "x", "y", "yaw"), "object_pose": ("time", "x", 
 @dataclass(frozen=True)
 class PushSpec:
     """The push a file name encodes: surface, shape, acceleration `a` (0 = constant speed), pusher speed `v`
-    (mm/s), side `i` pushed, contact position `s` along it (0..1), push angle `t` to the side's normal (rad)."""
+    (mm/s), side `i` pushed, contact position `s` along it (0..1), push angle `t` to the side's normal (rad).
+    For a file named otherwise only the shape is known (`shape_from`: where the shape was read)."""
 
-    surface: str
+    surface: str | None
     shape: str
-    a: float
-    v: float
-    i: int
-    s: float
-    t: float
+    a: float | None = None
+    v: float | None = None
+    i: int | None = None
+    s: float | None = None
+    t: float | None = None
+    shape_from: str = "file name"
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,16 +106,47 @@ def parse_push_name(path: str | os.PathLike) -> PushSpec:
     return spec
 
 
+def follows_push_name(path: str | os.PathLike) -> bool:
+    """Whether the file's name is one of the dataset's (and so tells the shape)."""
+    return _NAME.match(Path(path).name) is not None
+
+
+def push_spec(path: Path, shape: str | None, attribute: str | None) -> PushSpec:
+    """The push of a file: from its name when it follows the dataset's pattern, else the shape from the file's
+    `shape` attribute, else `shape` (the command line's --shape). A shape given that contradicts the file's own
+    is an error, and so is a file nothing names the shape of."""
+    if shape is not None and (not isinstance(shape, str) or not _SHAPE.match(shape)):
+        raise RecordingError(f"--shape must be a name like 'rect1', got {shape!r}")
+    if follows_push_name(path):
+        spec = parse_push_name(path)
+        told, where = spec.shape, "its file name"
+    elif attribute is not None:
+        spec = PushSpec(None, attribute, shape_from="the file's 'shape' attribute")
+        told, where = attribute, "its 'shape' attribute"
+    elif shape is not None:
+        return PushSpec(None, shape, shape_from="--shape")
+    else:
+        raise RecordingError(f"cannot tell which shape was pushed: the file name does not follow the dataset's "
+                             f"pattern ({_NAME_PATTERN}) and the file has no 'shape' attribute; name it with "
+                             "--shape NAME", source=str(path))
+    if shape is not None and shape != told:
+        raise RecordingError(f"{where} says shape {told!r}, --shape says {shape!r}", source=str(path))
+    return spec
+
+
 # --- loading --------------------------------------------------------------------------------------------
 def load_push(path: str | os.PathLike, *, max_duration: float | None = None,
-              max_time_jitter: float = MAX_TIME_JITTER) -> PushRecording:
-    """Read, validate and resample one push file; every problem is a RecordingError naming file and dataset."""
+              max_time_jitter: float = MAX_TIME_JITTER, shape: str | None = None) -> PushRecording:
+    """Read, validate and resample one push file; every problem is a RecordingError naming file and dataset.
+    `shape`: the shape pushed, for a file whose name and attributes do not tell it (`push_spec`)."""
     path = Path(path)
-    spec = parse_push_name(path)
+    if follows_push_name(path):
+        parse_push_name(path)  # a bad value in a dataset name is refused before the file is read
     if max_duration is not None and not (math.isfinite(max_duration) and max_duration > 0):
         raise RecordingError(f"max_duration must be a positive number of seconds, got {max_duration!r}",
                              source=str(path))
-    raw = _read_streams(path)
+    raw, attribute = _read_streams(path)
+    spec = push_spec(path, shape, attribute)
     repairs: list[str] = []
     streams = {name: _clean_times(array, path, name, max_time_jitter, repairs) for name, array in raw.items()}
 
@@ -144,7 +181,8 @@ def load_push(path: str | os.PathLike, *, max_duration: float | None = None,
         start_time=float(times[0]), repairs=tuple(repairs))
 
 
-def _read_streams(path: Path) -> dict[str, np.ndarray]:
+def _read_streams(path: Path) -> tuple[dict[str, np.ndarray], str | None]:
+    """The streams, and the root's `shape` attribute (None when absent)."""
     import h5py  # local: only this reader needs it
 
     if not path.is_file():
@@ -170,7 +208,17 @@ def _read_streams(path: Path) -> dict[str, np.ndarray]:
                 raise RecordingError(f"missing dataset; the file has {', '.join(present) or 'no datasets'}",
                                      source=str(path), field=name)
             streams[name] = _read_array(handle[name], path, name)
-    return streams
+        attribute = handle.attrs.get("shape")
+    if attribute is not None:
+        if isinstance(attribute, bytes):
+            attribute = attribute.decode("utf-8", errors="replace")
+        if isinstance(attribute, np.ndarray) and attribute.size == 1:
+            attribute = attribute.reshape(-1)[0]
+        attribute = attribute.decode("utf-8", errors="replace") if isinstance(attribute, bytes) else attribute
+        if not isinstance(attribute, str) or not _SHAPE.match(attribute):
+            raise RecordingError(f"the 'shape' attribute must be a shape's name like 'rect1', got {attribute!r}",
+                                 source=str(path), field="shape")
+    return streams, attribute
 
 
 def _read_array(node, path: Path, name: str) -> np.ndarray:

@@ -24,6 +24,7 @@ from .observations import ObservedPoses, ObservedTrack
 from .telemetry import Telemetry
 
 SURFACE_TYPE = "push_surface"
+SHAPE_TYPE = "mit_shape"  # the abstract type of the dataset's shapes (odb/types/mit_push.yaml)
 ROBOT_TYPE = "planar_pusher"
 SURFACE_NAME, ROBOT_NAME = "surface", "pusher"
 OBSERVATION_RATE = 25.0  # Hz of the observed track kept for the error (the file has about 250 Hz)

@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+from collections import deque
 from concurrent.futures import Executor as FuturesExecutor
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 from ..errors import BridgeError
 from ..odb import ObjectDatabase, load_object_database
@@ -83,6 +84,27 @@ class Executor:
         """Simulate every job; outcomes in the order of `jobs`."""
         futures = [self.executor.submit(run_task, job, self.odb_ref) for job in jobs]
         return [f.result() for f in futures]
+
+    def iterate(self, jobs: Sequence[Job]) -> Iterator[Outcome]:
+        """Each job's outcome in the order of `jobs`, as soon as it (and those before it) is done; no more than a
+        few jobs per worker are submitted ahead, so a caller that stops iterating (a time limit) leaves the rest
+        unstarted, and those submitted but not started are cancelled."""
+        ahead = 1 if self.kind == "serial" else 2 * self.workers
+        pending: deque[Future] = deque()
+        queue = iter(jobs)
+        try:
+            while True:
+                while len(pending) < ahead:
+                    job = next(queue, None)
+                    if job is None:
+                        break
+                    pending.append(self.executor.submit(run_task, job, self.odb_ref))
+                if not pending:
+                    return
+                yield pending.popleft().result()
+        finally:
+            for future in pending:
+                future.cancel()
 
     def close(self) -> None:
         self._closer()

@@ -55,31 +55,48 @@ class Trial:
 
 
 def load_trials(paths: Iterable[str | os.PathLike], odb: ObjectDatabase, *, max_duration: float | None = None,
-                observation_rate: float | None = None, frame_yaws: Mapping[str, float] | None = None) -> list[Trial]:
+                observation_rate: float | None = None, frame_yaws: Mapping[str, float] | None = None,
+                shape: str | None = None) -> list[Trial]:
     """Read every path: a recording folder, an MIT h5 file, or a folder of h5 files (sorted by name).
 
     `max_duration` (s) truncates MIT pushes (tests and quick runs); `observation_rate` (Hz, default 25)
-    subsamples their motion-capture track; `frame_yaws` fixes a shape's frame offset instead of estimating it.
-    Trial names are the folder names / file stems, made unique with a suffix when two collide.
+    subsamples their motion-capture track; `frame_yaws` fixes a shape's frame offset instead of estimating it;
+    `shape` is the shape pushed in h5 files whose name does not follow the dataset's pattern and that carry no
+    `shape` attribute (`mitpush.push_spec`). Trial names are the folder names / file stems, made unique with a
+    suffix when two collide.
     """
     from ..recording.mitpush import load_push
 
     expanded = _expand(paths)
     if not expanded:
         raise RecordingError("no recordings given: pass recording folders, MIT .h5 files or folders of .h5 files")
+    if shape is not None:
+        check_shape(shape, odb)
+        if not any(p.suffix.lower() in H5_SUFFIXES for p in expanded):
+            raise RecordingError(f"--shape {shape} names the shape pushed in MIT .h5 files, but no .h5 file was given")
     pushes = {}
     for path in expanded:
         if path.suffix.lower() in H5_SUFFIXES:
-            pushes[path] = load_push(path)  # in full: the frame offset is estimated from whole pushes
+            pushes[path] = load_push(path, shape=shape)  # in full: the frame offset is estimated from whole pushes
     yaws = _frame_yaws(pushes.values(), odb, frame_yaws or {})
     trials: list[Trial] = []
     for path in expanded:
         if path in pushes:
-            push = pushes[path] if max_duration is None else load_push(path, max_duration=max_duration)
+            push = pushes[path] if max_duration is None else load_push(path, max_duration=max_duration, shape=shape)
             trials.append(_push_trial(push, odb, yaws[push.spec.shape], observation_rate))
         else:
             trials.append(_recording_trial(path, odb))
     return _unique_names(trials)
+
+
+def check_shape(shape: str, odb: ObjectDatabase) -> None:
+    """`shape` must be one of the MIT pushing dataset's shapes in the object database (odb/types/mit_push.yaml)."""
+    from ..recording.mitsession import SHAPE_TYPE
+
+    known = sorted(n for n, t in odb.types.items() if t.is_a(SHAPE_TYPE) and not t.abstract)
+    if shape not in known:
+        raise RecordingError(f"--shape {shape!r} is not a shape of the MIT pushing dataset; shapes: "
+                             f"{', '.join(known) or 'none in the object database'}")
 
 
 def _expand(paths: Iterable[str | os.PathLike]) -> list[Path]:
@@ -126,6 +143,8 @@ def _push_trial(push, odb: ObjectDatabase, frame_yaw: float, observation_rate: f
     notes = list(session.notes)
     if frame_yaw:
         notes.append(f"{push.spec.shape}: mesh frame turned {math.degrees(frame_yaw):+.0f} deg from the pose frame")
+    if push.spec.shape_from != "file name":
+        notes.append(f"{push.path.name}: the shape {push.spec.shape} comes from {push.spec.shape_from}")
     if push.repairs:
         notes.append(f"{len(push.repairs)} object_pose row(s) dropped for clock jitter (see load_push)")
     return Trial(push.path.stem, session.world, session.telemetry, session.observations, push.path, tuple(notes),

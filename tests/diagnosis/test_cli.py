@@ -93,3 +93,20 @@ def test_fit_runs_on_top_of_a_diagnosed_scene_file(odb, tmp_path, capsys):
     assert main(["fit", *map(str, paths), "--scene", str(bad), "--out", str(tmp_path / "bad")]) == 1
     err = capsys.readouterr().err.strip()
     assert "tabel" in err and "bad.yaml" in err and err.count("\n") == 0
+
+
+@pytest.mark.slow
+def test_diagnose_stops_at_its_time_limit_with_a_partial_verdict(odb, tmp_path, capsys):
+    paths, _ = generate_case(Case("planar", "com_offset", "large", 1), odb, tmp_path / "case", 3)
+    out = tmp_path / "diag"
+    argv = ["diagnose", *map(str, paths), "--out", str(out), "--workers", "1", "--hold-out", "1", "--time-limit", "1"]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    data = json.loads((out / "diagnosis.json").read_text())
+    validate(data)
+    assert data["stopped"] == "time limit" and data["time_limit_s"] == 1.0 and data["stopped_after_s"] >= 1.0
+    untried = [c for c in data["candidates"] if c.get("note") == "not screened: time limit"]
+    assert untried and any(n.startswith("partial: the time limit of 1 s stopped the search") for n in data["notes"])
+    assert "Partial result" in (out / "report.md").read_text()
+    assert "(partial: stopped at the time limit)" in captured.out
+    assert "\r" not in captured.err and "diagnosis step 1/" in captured.err and "elapsed" in captured.err

@@ -171,3 +171,35 @@ def test_optimizer_choices_are_checked(slide, odb, tmp_path):
         fit_parameters(slide, recovery_spec(FRICTIONS), odb=odb, optimizer="ga")
     with pytest.raises(FitError, match="Levenberg-Marquardt fit keeps no checkpoint"):
         fit_parameters(slide, recovery_spec(FRICTIONS), odb=odb, optimizer="lm", checkpoint=tmp_path, resume=True)
+
+
+# --- a time limit ------------------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_bridge_fit_stops_at_its_time_limit_and_still_writes_the_best_so_far(slide, odb, tmp_path, capsys):
+    folder = _as_recording(slide[0], tmp_path / "recordings" / "slide")
+    params = tmp_path / "params.yaml"
+    params.write_text(yaml.safe_dump(recovery_spec(FRICTIONS).to_dict()))
+    out = tmp_path / "out"
+    argv = ["fit", str(folder), "--params", str(params), "--executor", "serial", "--generations", "30", "--popsize",
+            "4", "--hold-out", "0", "--time-limit", "1", "--out", str(out)]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    data = json.loads((out / "fit.json").read_text())
+    assert data["stopped"] == "time limit" and data["time_limit_s"] == 1.0 and data["stopped_after_s"] >= 1.0
+    assert 1 <= data["generations"] < 30 == data["max_generations"]
+    assert "time limit" in data["stop_reason"] and data["after"]["e"] <= data["before"]["e"]
+    assert (out / "params.yaml").is_file() and "partial" in (out / "params.yaml").read_text()
+    assert "Partial result" in (out / "table1.md").read_text() and "partial result" in captured.out
+    # progress off a terminal: plain lines with the time left, and the whole fit's estimate after generation 1
+    assert "\r" not in captured.err
+    assert "generation 1/30 (3%)" in captured.err and "elapsed" in captured.err
+    assert "the first generation took" in captured.err and "the 29 left take about" in captured.err
+    assert "the time limit stops it after 1.0 s" in captured.err
+
+
+@pytest.mark.slow
+def test_a_levenberg_marquardt_fit_stops_at_its_time_limit(slide, odb):
+    result = fit_parameters(slide, recovery_spec(FRICTIONS), odb=odb, optimizer="lm", generations=20, hold_out=0,
+                            time_limit=0.01)
+    assert result.stopped == "time limit" and result.partial and result.generations == 1
+    assert set(result.values) == set(FRICTIONS) and result.std == {}

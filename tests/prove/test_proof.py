@@ -85,3 +85,20 @@ def test_scene_file_replays_the_diagnosed_model(name, odb, proof_root, executor)
         return float(np.sqrt(np.mean(pose_residual(series.xyz, series.R, xyz, R)[:, :3] ** 2)))
 
     assert error(modelled) < error(plain)
+
+
+@pytest.mark.slow
+def test_the_proof_starts_no_case_after_its_time_limit(odb, tmp_path):
+    from bridge.prove.proof import run_proof
+    from bridge.prove.scenes import Case
+
+    cases = [Case("planar", "none", "medium", 2), Case("planar", "none", "medium", 3)]
+    done, lines = [], []
+    proof = run_proof(tmp_path, odb, cases=cases, workers=1, time_limit=0.01, log=lines.append,
+                      progress=lambda k, n: done.append((k, n)))
+    assert len(proof.results) == 1 and done == [(1, 2)] and proof.partial
+    data = json.loads((tmp_path / "proof.json").read_text())
+    assert data["stopped"] == "time limit" and data["cases_planned"] == 2 and len(data["cases"]) == 1
+    assert data["time_limit_s"] == 0.01 and data["stopped_after_s"] > 0
+    assert "(partial)" in (tmp_path / "proof.md").read_text() and "after 1 of 2 case(s)" in proof.text()
+    assert any("stopping after 1 of 2 case(s)" in line for line in lines)

@@ -214,8 +214,11 @@ def test_streams_that_do_not_overlap(tmp_path):
 
 
 def test_bad_file_name_is_reported_before_reading(tmp_path):
+    # a dataset name with a bad value is refused before the file is opened (which does not exist here) ...
+    expect_error(tmp_path / NAME.replace("s=0.700", "s=1.700"), "contact position s=1.700 is outside 0..1")
+    # ... another name is read, and refused when nothing names the shape
     path = write_push(tmp_path / "push.h5", **good_streams())
-    expect_error(path, "does not follow the pattern")
+    expect_error(path, "does not follow the dataset's pattern", "--shape")
 
 
 # --- dataset folder --------------------------------------------------------------------------------------
@@ -300,3 +303,36 @@ def test_frame_yaw_evidence_by_shape(mit_push_root):
     assert np.ptp(costs["ellip1"]) < 0.05 and np.ptp(costs["rect1"]) < 0.05  # circle, square: no evidence
     assert costs["ellip3"][0] > 10 * costs["ellip3"][1]  # 0 deg puts the rod ~27 mm off the ellipse
     assert costs["hex"][0] > 2 * costs["hex"][1]
+
+
+# --- files under other names: the shape from an attribute or from the caller (--shape) ----------------------------
+def test_a_file_under_another_name_needs_its_shape_named(tmp_path):
+    path = write_push(tmp_path / "push.h5", **good_streams())
+    message = expect_error(path, "cannot tell which shape was pushed", "--shape NAME")
+    assert message.count("\n") == 0
+    rec = load_push(path, shape="rect1")
+    assert rec.spec == PushSpec(None, "rect1", shape_from="--shape") and len(rec) > 10
+
+
+def test_a_shape_attribute_names_it_and_a_contradicting_shape_is_refused(tmp_path):
+    path = write_push(tmp_path / "push.h5", **good_streams())
+    with h5py.File(path, "a") as h5:
+        h5.attrs["shape"] = "ellip1"
+    assert load_push(path).spec.shape == "ellip1" and load_push(path, shape="ellip1").spec.shape == "ellip1"
+    with pytest.raises(RecordingError, match=r"push.h5: its 'shape' attribute says shape 'ellip1', --shape says 'rect1'"):
+        load_push(path, shape="rect1")
+    with pytest.raises(RecordingError, match=r"its file name says shape 'rect1', --shape says 'hex'"):
+        load_push(write_push(tmp_path / NAME, **good_streams()), shape="hex")
+    with h5py.File(path, "a") as h5:
+        h5.attrs["shape"] = "../rect1"
+    expect_error(path, "shape: the 'shape' attribute must be a shape's name")
+
+
+def test_a_real_push_copied_under_any_name_reads_as_the_original(tmp_path, mit_push_root):
+    original = mit_push_root / "train" / NAME
+    copy = tmp_path / "push.h5"
+    copy.write_bytes(original.read_bytes())
+    a, b = load_push(original), load_push(copy, shape="rect1")
+    assert b.spec.shape == a.spec.shape == "rect1" and b.spec.v is None
+    np.testing.assert_array_equal(a.t, b.t)
+    np.testing.assert_array_equal(a.object_pose, b.object_pose)

@@ -83,3 +83,28 @@ def test_serial_executor_hands_exceptions_to_the_future():
     with pytest.raises(ZeroDivisionError):
         future.result()
     assert SerialExecutor().submit(sum, [1, 2]).result() == 3
+
+
+def test_iterate_submits_a_few_jobs_ahead_and_leaves_the_rest_when_stopped(monkeypatch):
+    from bridge.odb import load_object_database
+    from bridge.rollout import executors
+
+    calls = []
+    monkeypatch.setattr(executors, "run_task", lambda job, ref: calls.append(job) or job * 10)
+    with make_executor("serial", load_object_database()) as executor:
+        outcomes = executor.iterate([1, 2, 3, 4])
+        assert next(outcomes) == 10 and calls == [1]  # serial: one at a time, as consumed
+        assert next(outcomes) == 20 and calls == [1, 2]
+        outcomes.close()  # a time limit: the jobs not started never run
+        assert calls == [1, 2]
+        assert list(executor.iterate([5, 6])) == [50, 60]
+
+
+@pytest.mark.slow
+def test_iterating_a_pool_and_stopping_early_leaves_it_usable(slide, odb, pool):
+    jobs = [Job(Rollout(slide[0].world, slide[0].telemetry)) for _ in range(6)]
+    outcomes = pool.iterate(jobs)
+    first = next(outcomes)
+    outcomes.close()
+    again = pool.run(jobs[:2])
+    assert not first.failed and [o.result.final_poses.keys() for o in again] == [first.result.final_poses.keys()] * 2

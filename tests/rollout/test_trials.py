@@ -67,7 +67,7 @@ def test_paths_that_are_not_recordings(tmp_path, odb):
     with pytest.raises(RecordingError, match="no recordings given"):
         load_trials([], odb)
     bad_name = write_push(tmp_path / "push.h5")
-    with pytest.raises(BridgeError, match="file name does not follow the pattern"):
+    with pytest.raises(BridgeError, match="file name does not follow the dataset's pattern .* --shape NAME"):
         load_trials([bad_name], odb)
 
 
@@ -96,3 +96,37 @@ def test_real_pushes_share_a_frame_offset_per_shape(mit_push_root, odb):
     fixed = load_trials(files[:1], odb, frame_yaws={"hex": 0.0}, max_duration=0.5)[0]
     yaw = lambda t: t.world.objects["hex"].pose.yaw()  # noqa: E731
     assert math.remainder(yaw(trials[0]) - yaw(fixed), 2 * math.pi) == pytest.approx(math.pi / 2)
+
+
+# --- a push file under any name: --shape ---------------------------------------------------------------------------
+def test_a_renamed_push_file_loads_with_its_shape_named(mit_push_root, odb, tmp_path):
+    push = tmp_path / "push.h5"
+    push.write_bytes((mit_push_root / "train" / NAME).read_bytes())
+    with pytest.raises(RecordingError, match=r"push.h5: cannot tell which shape was pushed.*--shape NAME"):
+        load_trials([push], odb)
+    renamed = load_trials([push], odb, shape="rect1", max_duration=0.5)[0]
+    original = load_trials([mit_push_root / "train" / NAME], odb, max_duration=0.5)[0]
+    assert renamed.name == "push" and renamed.is_planar_push
+    assert "push.h5: the shape rect1 comes from --shape" in renamed.notes
+    assert renamed.world.objects["rect1"].pose == original.world.objects["rect1"].pose
+    np.testing.assert_array_equal(renamed.telemetry.positions, original.telemetry.positions)
+
+
+@pytest.mark.slow
+def test_bridge_fit_and_infer_read_a_renamed_push_file_with_shape(mit_push_root, tmp_path, capsys):
+    import json
+
+    from bridge.cli import main
+
+    push = tmp_path / "push.h5"
+    push.write_bytes((mit_push_root / "train" / NAME).read_bytes())
+    dataset = ["--dataset", f"mit-push={mit_push_root}"]
+    out = tmp_path / "fit"
+    argv = ["fit", str(push), "--shape", "rect1", "--out", str(out), "--executor", "serial", "--generations", "1",
+            "--popsize", "2", "--hold-out", "0", "--max-duration", "0.8", *dataset]
+    assert main(argv) == 0, capsys.readouterr().err
+    data = json.loads((out / "fit.json").read_text())
+    assert data["fit_trials"] == ["push"] and "push.h5: the shape rect1 comes from --shape" in data["notes"]
+    world_out = tmp_path / "after.yaml"
+    assert main(["infer", str(push), "--shape", "rect1", "--world-out", str(world_out), *dataset]) == 0
+    assert "rect1 moved" in capsys.readouterr().out and (tmp_path / "problem_after.pddl").is_file()
