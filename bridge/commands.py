@@ -224,7 +224,6 @@ def _rollout(recording, odb, args):
     clock), then a fitted parameter file (--params) on top; both are parameter files, every target checked
     against the recording's world."""
     from .params import apply_model, check_values, load_param_file, replay_model
-    from .recording.recording import recording_world
     from .rollout import Rollout
 
     rollout = recorded = Rollout(recording.world, recording.telemetry, name=recording.name)
