@@ -59,19 +59,14 @@ def positive_int(text: str) -> int:
 
 def popsize_int(text: str) -> int:
     return _number(text, int, 2, False, "a whole number >= 2 (an evolution needs two candidates to compare)")
-def _seconds(text: str) -> float:
-    """--time-limit: a finite number of seconds > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number of seconds > 0, got {text!r}")
-    return value
+
+
+def seconds(text: str) -> float:
+    return _number(text, float, 0.0, True, "a finite number of seconds > 0")
 
 
 def _time_limit_arg(p: argparse.ArgumentParser, what: str) -> None:
-    p.add_argument("--time-limit", type=_seconds, default=None, metavar="SECONDS",
+    p.add_argument("--time-limit", type=seconds, default=None, metavar="SECONDS",
                    help=f"after this many seconds {what}, marked partial (default: no limit)")
 
 
