@@ -35,6 +35,7 @@ from ..params.surfaces import support_of
 from ..rollout.compare import PoseError
 from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
+from .loader import LoaderEvidence, raw_offsets, read_adjustments
 from .locate import Localisation, locate
 from .runs import Runner, chi2_of
 from .search import Evaluator, FitResult, bic, correlation_time, fit, pose_error_of, screen
@@ -132,6 +133,7 @@ class Identification:
     seconds: float
     held_out_localisation: Localisation | None = None
     stopped: str | None = None  # "time limit": the search was cut short, the verdict is over what was tried
+    loader: LoaderEvidence | None = None  # what the loader changed in each recording, read as evidence
 
     @property
     def partial(self) -> bool:
@@ -189,10 +191,18 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     notes: list[str] = []
     ev.cache[()] = tuple(loc.runs)
     none_chi2, n = chi2_of(loc.runs)
+    # what the loader changed, as evidence: a rod that started inside the object is a calibration offset's mark
+    order = list(train) + list(held_out)
+    loader = read_adjustments([runner.prepared[i] for i in order], range(len(train), len(order)))
+    if loader.sentence():
+        notes.append(loader.sentence())
+        say(notes[-1])
+    train_names = _names(runner, train)
     ranked_objects = [name for name, excess in loc.objects_ranked() if excess > 0] or \
         [o for o, _ in loc.objects_ranked()]
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
-                        loc.force_scale())
+                        loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
+                        loader.offset_estimate(), loader.mean_shift(train_names))
     none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
@@ -205,7 +215,8 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         scored = _score([none], 1.0)
         scored = _held_out(runner, held_out, scored)
         return Identification("none", tuple(scored), loc, _names(runner, train), _names(runner, held_out), 1.0, (),
-                              tuple(notes), runner.simulations - sims0, time.perf_counter() - started, held_loc)
+                              tuple(notes), runner.simulations - sims0, time.perf_counter() - started, held_loc,
+                              loader=loader)
 
     allowed = set(options.effects or EFFECTS) - {"none"}
     focus = ranked_objects[:1]
@@ -287,7 +298,8 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         chis = [ev.chi2(_model(space, x)) for x in starts]
         result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations,
                      optimizer=options.optimizer, should_stop=limit.expired)
-        scored = _held_out(runner, held_out, [_from_fit(c.effect, c.target, result, world, odb)])[0]
+        scored = _with_raw_offset(_held_out(runner, held_out, [_from_fit(c.effect, c.target, result, world, odb)])[0],
+                                  evidence.loader_shift)
         frictions = {s.name: s.value for s in scored.model if s.kind == "friction" and s.effect == "friction"}
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
@@ -317,12 +329,18 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     verdict, check = _verdict(scored, bool(held_out), world, odb)
     if check:
         notes.append(check)
+    raw = {k[len("raw "):-len(" mm")]: v for k, v in next(s for s in scored if s.effect == verdict).derived.items()
+           if k.startswith("raw ") and k.endswith(" mm")}
+    if raw:
+        notes.append(f"{verdict}: relative to the raw recordings the pusher was off by "
+                     + ", ".join(f"{j} {v:+.2f} mm" for j, v in raw.items())
+                     + " (the fitted offset plus the loader's mean tip shift over the fitted recordings)")
     if runner.failures:
         notes.append(f"{len(runner.failures)} simulation(s) failed and scored as far off (first: "
                      f"{runner.failures[0][0]}: {runner.failures[0][1]})")
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
-                          held_loc, stopped)
+                          held_loc, stopped, loader)
 
 
 def _space(friction: Sequence[Parameter], effect, target: str, world, odb) -> ParameterSet:
@@ -357,6 +375,20 @@ def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) ->
     return Scored(effect, target, params, {p.name: std[p.name] for p in own}, result.model(), result.space.dim,
                   result.chi2, result.n, error=pose_error_of(result.runs), derived=derived,
                   evaluations=result.evaluations, model_std=std)
+
+
+def _with_raw_offset(s: Scored, shift: dict[str, float]) -> Scored:
+    """A fitted joint offset reported relative to the raw recording too (`raw JOINT mm` in `derived`): the loader
+    shifted the telemetry the fit started from, and the calibration offset a user corrects is the sum."""
+    raw = raw_offsets(s.params, shift)
+    if not raw:
+        return s
+    from dataclasses import replace
+
+    derived = {**s.derived, **{f"raw {j} mm": 1e3 * v for j, v in raw.items()}}
+    if len(raw) > 1:
+        derived["raw offset mm"] = 1e3 * math.sqrt(sum(v * v for v in raw.values()))
+    return replace(s, derived=derived)
 
 
 def _score(models: Sequence[Scored], tau: float) -> list[Scored]:

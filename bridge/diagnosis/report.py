@@ -62,9 +62,18 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
         "scene_file": scene_file,
         "simulation_failures": dict(failures or {"count": 0, "first": []}),
         "notes": list(ident.notes),
+        **loader_json(ident),
         "simulations": int(ident.simulations),
         "seconds": round(ident.seconds, 2),
     }
+
+
+def loader_json(ident: Identification) -> dict[str, Any]:
+    """"adjustments": what the loader changed in each recording; "evidence": what that says (a rod that started
+    inside the object beyond the noise), see bridge.diagnosis.loader."""
+    if ident.loader is None:
+        return {"adjustments": [], "evidence": None}
+    return ident.loader.to_json()
 
 
 def held_out_rms(s) -> float | None:
@@ -138,12 +147,38 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
         params = ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items())
         lines.append(f"| {s.effect} | {s.target} | {s.score:.1f} | {s.k} | {s.rms:.2f} | {held} | {params} |")
     lines += ["", "## Where the mismatch is", "", "```", ident.localisation.text(), "```", ""]
+    lines += loader_markdown(data)
     noise = data["noise"]
     lines += ["Noise floor estimated from the observations: " +
               ", ".join(f"{k} {v:.3g}" for k, v in noise.items()) + " (m, rad).", ""]
     for f in figures:
         lines.append(f"![{Path(f).stem}]({Path(f).name})")
     return "\n".join(lines) + "\n"
+
+
+def loader_markdown(data: Mapping[str, Any]) -> list[str]:
+    """The report's "What the loader changed" section: every recording the loader repaired, and how."""
+    rows = []
+    for entry in data.get("adjustments") or ():
+        for a in entry["adjustments"]:
+            if a["kind"] == "start_clearance" and (a["shift_m"] != [0.0, 0.0] or a.get("inside")):
+                what = (f"rod started {a['penetration_m'] * 1e3:.2f} mm inside (threshold "
+                        f"{a.get('threshold_m', float('nan')) * 1e3:.2f} mm); tip track moved x "
+                        f"{a['shift_m'][0] * 1e3:+.2f} mm, y {a['shift_m'][1] * 1e3:+.2f} mm")
+            elif a["kind"] == "dropped_rows":
+                what = f"{a['count']} {a['stream']} row(s) dropped (clock jitter)"
+            elif a["kind"] == "frame_yaw":
+                what = f"mesh frame turned {math.degrees(a['yaw_rad']):+.1f} deg from the pose frame"
+            else:
+                continue
+            rows.append(f"| {entry['recording']} | {a['kind']} | {what} |")
+    if not rows:
+        return []
+    evidence = (data.get("evidence") or {}).get("start_inside") or {}
+    lines = ["## What the loader changed", ""]
+    if evidence.get("sentence"):
+        lines += [f"**{evidence['sentence'][0].upper()}{evidence['sentence'][1:]}.**", ""]
+    return lines + ["| recording | adjustment | what |", "|---|---|---|", *rows, ""]
 
 
 # --- plots ------------------------------------------------------------------------------------------------------

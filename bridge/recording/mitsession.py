@@ -18,7 +18,8 @@ from ..odb import ObjectDatabase
 from ..odb.geometry import z_range
 from ..values import Pose
 from ..world import ObjectState, RobotState, WorldState
-from .mitpush import PUSHER_RADIUS, PushRecording, _signed_distance, load_outline
+from .adjustments import StartClearance
+from .mitpush import PUSHER_RADIUS, PushRecording, _pushed_samples, _signed_distance, load_outline
 from .forces import ObservedForce
 from .observations import ObservedPoses, ObservedTrack
 from .telemetry import Telemetry
@@ -36,7 +37,8 @@ START_CLEARANCE = 1e-4  # m between rod and outline at t = 0 when the recorded s
 class PushSession:
     """A push as a world state before it, pusher telemetry (`pusher_x`, `pusher_y` = rod centre, m) and the
     object's observed track in the mesh frame. `tip_shift` (m, world x y) was added to every tip sample to
-    start the rod out of the object; `notes` say so in words."""
+    start the rod out of the object; `start` keeps the recorded start clearance and that shift as data (the
+    diagnosis reads it as evidence), `notes` say so in words."""
 
     world: WorldState
     telemetry: Telemetry
@@ -45,6 +47,7 @@ class PushSession:
     tip_shift: tuple[float, float] = (0.0, 0.0)
     notes: tuple[str, ...] = ()
     force: ObservedForce | None = None  # ft_wrench's fx, fy (fz not measured), when it can be trusted
+    start: StartClearance | None = None  # None: no outline to measure against
 
 
 def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float = 0.0, observation_rate: float = OBSERVATION_RATE,
@@ -55,8 +58,10 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
     shape) stands on it at its recorded start pose, turned by `frame_yaw` into the mesh frame
     (`estimate_frame_yaw`); the `planar_pusher` base is welded at the object's mid-height so its joints are the
     rod centre's x and y. If the recorded rod starts inside the outline (`outline`, default the shape's), the
-    whole tip track is moved out along the outline's normal to `start_clearance`, and a note says by how much
-    (a rod already touching would otherwise kick the object at t = 0; the shift is at most a few tenths of a mm).
+    whole tip track is moved out along the outline's normal to `start_clearance` (a rod already touching would
+    otherwise kick the object at t = 0); the recorded clearance and the shift are kept in `start`, never only
+    in the note: a rod that starts millimetres inside is evidence of a pusher calibration offset or a wrong
+    object model, which the diagnosis weighs.
     The object's half height comes from its mesh (0.00635 m for the dataset's meshes).
     """
     shape, src = push.spec.shape, str(push.path)
@@ -71,18 +76,21 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
     x0, y0, yaw0 = (float(v) for v in push.object_pose[0])
     surface_z = -z_range(surface_geometry, Pose())[1]
 
-    tip, notes, shift = np.array(push.tip_xy), [], np.zeros(2)
+    tip, notes, shift, start = np.array(push.tip_xy), [], np.zeros(2), None
     if outline is None and odb.get(shape).geometry.mesh is not None:
         outline = load_outline(shape, odb.get(shape).geometry.mesh.parent.parent)
     if outline is not None:
-        clearance, normal = _start_clearance(push, np.asarray(outline, dtype=float), frame_yaw)
+        outline = np.asarray(outline, dtype=float)
+        clearance, normal = _start_clearance(push, outline, frame_yaw)
         if clearance < 0:
             shift = (start_clearance - clearance) * normal
             tip = tip + shift
-            notes.append(f"the rod started {-clearance * 1e3:.2f} mm inside the outline: the whole tip track was "
-                         f"moved {np.linalg.norm(shift) * 1e3:.2f} mm along the outline's normal "
-                         f"(x {shift[0] * 1e3:+.2f} mm, y {shift[1] * 1e3:+.2f} mm) to start "
-                         f"{start_clearance * 1e3:.1f} mm clear")
+        start = StartClearance(shape, float(clearance), (float(normal[0]), float(normal[1])),
+                               (float(shift[0]), float(shift[1])), float(start_clearance),
+                               float(np.hypot(*(push.tip_xy[0] - push.object_pose[0, :2]))),
+                               _contact_spread(push, outline, frame_yaw))
+        if start.moved:
+            notes.append(start.text())
     if np.any(np.abs(tip) >= 1.0):
         raise RecordingError("the rod leaves the planar pusher's reach (|x|, |y| < 1 m)", source=src, field="tip_pose")
 
@@ -104,7 +112,22 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
     if why:
         notes.append(why)
     return PushSession(world, telemetry, observations, float(frame_yaw), (float(shift[0]), float(shift[1])),
-                       tuple(notes), force)
+                       tuple(notes), force, start)
+
+
+def _contact_spread(push: PushRecording, outline: np.ndarray, frame_yaw: float) -> float | None:
+    """Scatter (m, 1.4826 MAD about the median) of the rod-to-outline gap while the rod pushes the object, where
+    the true gap is zero: what the outline's mismatch and the motion capture leave in a measured gap. A
+    constant offset moves the median, not the scatter. None with fewer than 10 pushed samples."""
+    pushed = _pushed_samples(push)
+    if len(pushed) < 10:
+        return None
+    heading = push.object_pose[pushed, 2] + frame_yaw
+    rel = push.tip_xy[pushed] - push.object_pose[pushed, :2]
+    c, s = np.cos(heading), np.sin(heading)
+    local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
+    gap = _signed_distance(local, outline) - PUSHER_RADIUS
+    return float(1.4826 * np.median(np.abs(gap - np.median(gap))))
 
 
 def _force(push: PushRecording) -> tuple[ObservedForce | None, str]:

@@ -8,7 +8,6 @@ apart.
 """
 from __future__ import annotations
 
-import math
 import os
 from collections import defaultdict
 from dataclasses import dataclass, replace
@@ -17,6 +16,7 @@ from typing import Iterable, Mapping, Sequence
 
 from ..errors import RecordingError
 from ..odb import ObjectDatabase
+from ..recording.adjustments import Adjustment, FrameYaw, dropped_rows
 from ..recording.forces import ObservedForce
 from ..recording.observations import ObservedPoses
 from ..recording.telemetry import Telemetry
@@ -28,7 +28,9 @@ DEFAULT_SETTLE = 0.5  # s simulated after the telemetry when the last observatio
 
 @dataclass(frozen=True, eq=False)
 class Trial:
-    """One recording ready for fitting. `notes` say what was changed on the way (e.g. a shifted tip track)."""
+    """One recording ready for fitting. `adjustments` are what the loader changed on the way, as data
+    (`bridge.recording.adjustments`: a shifted tip track, a turned frame, dropped rows), which the diagnosis reads
+    as evidence; `notes` say the same (and other facts) in words."""
 
     name: str
     world: WorldState
@@ -38,6 +40,7 @@ class Trial:
     notes: tuple[str, ...] = ()
     force: ObservedForce | None = None  # the robot's force sensor, when recorded
     base: tuple = ()  # settings (`bridge.params.Setting`) every replay of the trial starts from: a diagnosed model
+    adjustments: tuple[Adjustment, ...] = ()
 
     @property
     def settle(self) -> float:
@@ -83,7 +86,8 @@ def load_trials(paths: Iterable[str | os.PathLike], odb: ObjectDatabase, *, max_
     for path in expanded:
         if path in pushes:
             push = pushes[path] if max_duration is None else load_push(path, max_duration=max_duration, shape=shape)
-            trials.append(_push_trial(push, odb, yaws[push.spec.shape], observation_rate))
+            given = push.spec.shape in (frame_yaws or {})
+            trials.append(_push_trial(push, odb, yaws[push.spec.shape], observation_rate, estimated=not given))
         else:
             trials.append(_recording_trial(path, odb))
     return _unique_names(trials)
@@ -135,20 +139,25 @@ def _frame_yaws(pushes, odb: ObjectDatabase, given: Mapping[str, float]) -> dict
     return yaws
 
 
-def _push_trial(push, odb: ObjectDatabase, frame_yaw: float, observation_rate: float | None) -> Trial:
+def _push_trial(push, odb: ObjectDatabase, frame_yaw: float, observation_rate: float | None, *,
+                estimated: bool = True) -> Trial:
+    """The push as a trial; every repair the loader made is kept in `adjustments` (and said in `notes`)."""
     from ..recording.mitsession import OBSERVATION_RATE, push_session
 
     session = push_session(push, odb, frame_yaw=frame_yaw,
                            observation_rate=OBSERVATION_RATE if observation_rate is None else observation_rate)
     notes = list(session.notes)
+    adjustments: list[Adjustment] = [session.start] if session.start is not None else []
     if frame_yaw:
-        notes.append(f"{push.spec.shape}: mesh frame turned {math.degrees(frame_yaw):+.0f} deg from the pose frame")
+        adjustments.append(FrameYaw(push.spec.shape, float(frame_yaw), estimated))
+        notes.append(adjustments[-1].text())
     if push.spec.shape_from != "file name":
         notes.append(f"{push.path.name}: the shape {push.spec.shape} comes from {push.spec.shape_from}")
-    if push.repairs:
-        notes.append(f"{len(push.repairs)} object_pose row(s) dropped for clock jitter (see load_push)")
+    for dropped in dropped_rows(push.repairs):
+        adjustments.append(dropped)
+        notes.append(dropped.text())
     return Trial(push.path.stem, session.world, session.telemetry, session.observations, push.path, tuple(notes),
-                 session.force)
+                 session.force, adjustments=tuple(adjustments))
 
 
 def _recording_trial(folder: Path, odb: ObjectDatabase) -> Trial:

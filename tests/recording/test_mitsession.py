@@ -41,6 +41,7 @@ def test_world_telemetry_and_observations(mit_push_root, odb):
     assert session.telemetry.joint_names == ("pusher_x", "pusher_y")
     np.testing.assert_allclose(session.telemetry.positions, push.tip_xy)
     assert session.tip_shift == (0.0, 0.0) and not any("rod" in n for n in session.notes)
+    assert session.start.clearance == pytest.approx(0.0016, abs=3e-4) and not session.start.moved  # kept anyway
     assert session.force is None and "ft_wrench not used" in session.notes[0]  # rect1: spikes only
     track = session.observations.track("rect1")
     assert np.allclose(np.diff(track.times)[:-1], 0.04) and track.times[-1] == pytest.approx(push.duration)
@@ -48,7 +49,7 @@ def test_world_telemetry_and_observations(mit_push_root, odb):
     assert track.poses[-1].yaw() == pytest.approx(math.remainder(push.object_pose[-1, 2] + 0.3, 2 * math.pi))
 
 
-def test_a_rod_starting_inside_is_moved_out_with_a_note(mit_push_root, odb):
+def test_a_rod_starting_inside_is_moved_out_and_the_shift_is_kept(mit_push_root, odb):
     push = load_push(mit_push_root / "train" / INSIDE)
     outline = load_outline("rect1", mit_push_root)
     session = push_session(push, odb)
@@ -57,3 +58,8 @@ def test_a_rod_starting_inside_is_moved_out_with_a_note(mit_push_root, odb):
     assert "inside the outline" in session.notes[0] and "moved" in session.notes[0]
     assert _clearance(session, outline) == pytest.approx(START_CLEARANCE, abs=1e-6)
     np.testing.assert_allclose(session.telemetry.positions - push.tip_xy, np.tile(session.tip_shift, (len(push), 1)))
+    start = session.start  # the evidence, as data: what the shift undid and which way it went
+    assert start.moved and start.shift == session.tip_shift and start.object == "rect1"
+    assert start.penetration == pytest.approx(shift - START_CLEARANCE, abs=1e-9)
+    np.testing.assert_allclose(np.array(start.shift) / shift, start.normal, atol=1e-9)
+    assert session.notes[0] == start.text()

@@ -92,6 +92,10 @@ def test_real_pushes_share_a_frame_offset_per_shape(mit_push_root, odb):
         shape = trial.name.split("shape=")[1].split("_")[0]
         turned = any("mesh frame turned +90 deg" in n for n in trial.notes)
         assert turned == (shape == "hex")  # README: hex's pose frame is a quarter turn from its mesh frame
+        kinds = {a.kind: a for a in trial.adjustments}
+        assert "start_clearance" in kinds and ("frame_yaw" in kinds) == turned  # kept as data, not only words
+        if turned:
+            assert kinds["frame_yaw"].yaw == pytest.approx(math.pi / 2) and kinds["frame_yaw"].estimated
         assert trial.telemetry.duration <= 0.5 + 1e-9 and trial.settle == pytest.approx(0.0, abs=1e-9)
     fixed = load_trials(files[:1], odb, frame_yaws={"hex": 0.0}, max_duration=0.5)[0]
     yaw = lambda t: t.world.objects["hex"].pose.yaw()  # noqa: E731

@@ -32,6 +32,12 @@ class Evidence:
     world: WorldState
     odb: ObjectDatabase
     force_scale: float | None = None  # observed / simulated force on the robot while it pushes (None: no sensor)
+    # what the loader changed (`bridge.diagnosis.loader`): the share of recordings whose rod started inside the
+    # object beyond the noise, the calibration offset those penetrations imply and the loader's mean tip shift
+    # over the fitted recordings (m per robot joint; a fit starts from the shifted telemetry)
+    started_inside: float = 0.0
+    loader_offset: Mapping[str, float] | None = None
+    loader_shift: Mapping[str, float] = field(default_factory=dict)
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))

@@ -48,8 +48,26 @@ class PusherOffset(Effect):
         return {}
 
     def signature(self, evidence: Evidence, target: str) -> float:
+        """Early onset, across-push and yaw residual; raised towards 1 by the share of recordings whose rod
+        started inside the object (the loader's evidence: what a calibration offset leaves before any motion)."""
         early = 1.0 - min(1.0, max(0.0, evidence.mean("onset_rel", 0.0)))
-        return 0.2 + 0.4 * early + 0.2 * (evidence.mean("across") + evidence.mean("yaw"))
+        base = 0.2 + 0.4 * early + 0.2 * (evidence.mean("across") + evidence.mean("yaw"))
+        return base + (1.0 - base) * min(1.0, max(0.0, evidence.started_inside))
+
+    def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
+        """The null offset and, when rods started inside the object, the offset their penetrations imply: as
+        it is (what the recordings the loader did not shift need) and less the loader's mean shift (what the
+        fitted, partly shifted, telemetry needs on average)."""
+        null = self.null_values(evidence.world, evidence.odb, target)
+        if not evidence.loader_offset:
+            return [null]
+        names = {j: pname("joint_offset", j) for _, j in self.members(evidence.world, evidence.odb, target)}
+        raw = {names[j]: v for j, v in evidence.loader_offset.items() if j in names}
+        if not raw:
+            return [null]
+        less = {names[j]: v - evidence.loader_shift.get(j, 0.0) for j, v in evidence.loader_offset.items()
+                if j in names}
+        return [null, {**null, **less}, {**null, **raw}]
 
     # --- the proof: the robot's base mounted off by (dx, dy); the model offsets the joint readings --------------
     def draw_truth(self, scene, odb, rng, magnitude, sign):

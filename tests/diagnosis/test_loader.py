@@ -1,0 +1,115 @@
+"""Never repair away evidence (issue 11, item 3): the loader's start-clearance shift of real MIT pushes, kept on the
+trial, read by the diagnosis against a threshold from the recordings' own noise, and written to diagnosis.json and
+the report."""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from bridge.diagnosis.effects import Evidence, get_effect
+from bridge.diagnosis.identify import Identification, Scored, _with_raw_offset
+from bridge.diagnosis.loader import NOISE_SIGMAS, raw_offsets, read_adjustments
+from bridge.diagnosis.locate import Localisation
+from bridge.diagnosis.report import diagnosis_json, report_markdown, validate
+from bridge.diagnosis.runs import prepare
+from bridge.odb import load_object_database
+from bridge.recording.adjustments import StartClearance
+from bridge.recording.mitpush import load_outline, load_push
+from bridge.recording.mitsession import START_CLEARANCE, _start_clearance
+from bridge.rollout.compare import PoseError
+from bridge.rollout.trials import _push_trial
+
+RECT1 = ("motion_surface=abs_shape=rect1_a=0_v=75_i=2.000_s=0.800_t=-0.349.h5",  # the rod starts 1.6 mm away
+         "motion_surface=abs_shape=rect1_a=0_v=75_i=2.000_s=0.800_t=1.396.h5")  # 0.25 mm inside the outline
+PLANTED = 0.006  # m: how deep the planted calibration offset puts the rod inside the object at t = 0
+
+
+@pytest.fixture(scope="module")
+def mit_odb(mit_push_root):
+    return load_object_database(datasets={"mit-push": mit_push_root})
+
+
+def _planted(push, outline, depth: float = PLANTED):
+    """The push as recorded by a pusher whose calibration is off by a constant world offset that starts the rod
+    `depth` inside the object (along the outline's inward normal at t = 0)."""
+    clearance, normal = _start_clearance(push, outline, 0.0)
+    offset = -(clearance + depth) * normal
+    return replace(push, tip_xy=push.tip_xy + offset), normal
+
+
+def _trial(push, odb):
+    """The push as `bridge diagnose` loads it (rect1's mesh frame is its pose frame; motion capture at 250 Hz)."""
+    return _push_trial(push, odb, 0.0, 250.0)
+
+
+def test_a_rod_planted_6_mm_inside_keeps_the_shift_on_the_trial(mit_push_root, mit_odb):
+    push = load_push(mit_push_root / "train" / RECT1[0])
+    planted, normal = _planted(push, load_outline("rect1", mit_push_root))
+    trial = _trial(planted, mit_odb)
+    start = next(a for a in trial.adjustments if isinstance(a, StartClearance))
+    assert start.penetration == pytest.approx(PLANTED, abs=1e-6) and start.moved
+    np.testing.assert_allclose(start.shift, (PLANTED + START_CLEARANCE) * normal, atol=1e-9)  # along the normal
+    np.testing.assert_allclose(trial.telemetry.positions[0] - planted.tip_xy[0], start.shift, atol=1e-12)
+    assert start.contact_spread is not None and start.contact_spread < 1e-3 and start.lever > 0.03
+    assert any("6.00 mm inside the outline" in n for n in trial.notes)
+
+
+def test_normal_pushes_do_not_read_as_started_inside(mit_push_root, mit_odb):
+    prepared = [prepare(_trial(load_push(mit_push_root / "train" / name), mit_odb), mit_odb) for name in RECT1]
+    loader = read_adjustments(prepared)
+    assert len(loader.readings) == 2 and not loader.inside and loader.sentence() is None
+    inside = loader.readings[1]  # the loader still moves it 0.25 mm out, and keeps that
+    assert inside.start.moved and 0.0002 < inside.start.penetration < inside.threshold
+    assert loader.offset_estimate() is None
+    ev = Evidence((), prepared[0].world, mit_odb, started_inside=0.0, loader_offset=loader.offset_estimate())
+    assert len(get_effect("pusher_offset").seeds(ev, "pusher")) == 1  # the null offset only
+
+
+def test_diagnosis_json_and_report_carry_the_adjustments_and_the_evidence(mit_push_root, mit_odb):
+    outline = load_outline("rect1", mit_push_root)
+    planted, normal = _planted(load_push(mit_push_root / "train" / RECT1[0]), outline)
+    prepared = [prepare(_trial(planted, mit_odb), mit_odb),
+                prepare(_trial(load_push(mit_push_root / "train" / RECT1[1]), mit_odb), mit_odb)]
+    loader = read_adjustments(prepared, held_out=[1])
+    assert [r.recording for r in loader.inside] == [prepared[0].name]
+    threshold = loader.inside[0].threshold
+    assert 0.0 < threshold < 0.002  # a few noise sigmas: far below the planted 6 mm
+    sentence = loader.sentence()
+    assert sentence.startswith("the rod started 6.0 mm inside the object in 1 of 2 recordings")
+    assert "evidence of a pusher calibration offset or a wrong object model" in sentence
+    assert f"({NOISE_SIGMAS:g} sigma" in sentence
+    estimate = loader.offset_estimate()
+    np.testing.assert_allclose([estimate["pusher_x"], estimate["pusher_y"]], PLANTED * normal, atol=1e-6)
+
+    none = Scored("none", "world", {}, {}, (), 0, 100.0, 100, error=PoseError(0.001, 0.01, 0.002, 100))
+    ident = Identification("none", (none,), Localisation(()), (prepared[0].name,), (prepared[1].name,), 1.0, (),
+                           (sentence,), 0, 0.0, loader=loader)
+    data = diagnosis_json(ident)
+    validate(data)
+    by = {e["recording"]: e for e in data["adjustments"]}
+    start = next(a for a in by[prepared[0].name]["adjustments"] if a["kind"] == "start_clearance")
+    assert start["inside"] and start["penetration_m"] == pytest.approx(PLANTED, abs=1e-5)
+    assert math.hypot(*start["shift_m"]) == pytest.approx(PLANTED + START_CLEARANCE, abs=1e-5)
+    assert by[prepared[1].name]["held_out"] and data["evidence"]["start_inside"]["count"] == 1
+    assert data["evidence"]["start_inside"]["sentence"] == sentence
+    markdown = report_markdown(ident, data, [])
+    assert "## What the loader changed" in markdown and "6.00 mm inside" in markdown and sentence in markdown
+
+    # the pusher_offset effect starts its search at the offset the penetration implies, and is favoured
+    shift = loader.mean_shift([prepared[0].name])
+    ev = Evidence((), prepared[0].world, mit_odb, started_inside=len(loader.inside) / len(loader.readings),
+                  loader_offset=estimate, loader_shift=shift)
+    effect = get_effect("pusher_offset")
+    seeds = effect.seeds(ev, "pusher")
+    assert seeds[2] == pytest.approx({"joint_offset[pusher_x]": estimate["pusher_x"],
+                                      "joint_offset[pusher_y]": estimate["pusher_y"]})
+    assert effect.signature(ev, "pusher") > effect.signature(replace(ev, started_inside=0.0), "pusher")
+    # a fitted offset is reported relative to the raw recording: the fitted value plus the loader's shift
+    fitted = {"joint_offset[pusher_x]": 0.0005, "joint_offset[pusher_y]": -0.0002}
+    raw = raw_offsets(fitted, shift)
+    assert raw["pusher_x"] == pytest.approx(0.0005 + shift["pusher_x"])
+    s = _with_raw_offset(replace(none, effect="pusher_offset", target="pusher", params=fitted), shift)
+    assert s.derived["raw pusher_y mm"] == pytest.approx(1e3 * (-0.0002 + shift["pusher_y"]))
