@@ -84,7 +84,9 @@ def test_diagnosis_json_and_report_carry_the_adjustments_and_the_evidence(mit_pu
     estimate = loader.offset_estimate()
     np.testing.assert_allclose([estimate["pusher_x"], estimate["pusher_y"]], PLANTED * normal, atol=1e-6)
 
-    none = Scored("none", "world", {}, {}, (), 0, 100.0, 100, error=PoseError(0.001, 0.01, 0.002, 100))
+    error = PoseError(0.001, 0.01, 0.002, 100)
+    none = Scored("none", "world", {}, {}, (), 0, 100.0, 100, error=error, held_out_chi2=100.0, held_out_n=100,
+                  held_out_error=error)
     ident = Identification("none", (none,), Localisation(()), (prepared[0].name,), (prepared[1].name,), 1.0, (),
                            (sentence,), 0, 0.0, loader=loader)
     data = diagnosis_json(ident)

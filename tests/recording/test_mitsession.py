@@ -41,7 +41,7 @@ def test_world_telemetry_and_observations(mit_push_root, odb):
     assert session.telemetry.joint_names == ("pusher_x", "pusher_y")
     np.testing.assert_allclose(session.telemetry.positions, push.tip_xy)
     assert session.tip_shift == (0.0, 0.0) and not any("rod" in n for n in session.notes)
-    assert session.start.clearance == pytest.approx(0.0016, abs=3e-4) and not session.start.moved  # kept anyway
+    assert session.start.clearance > 0 and not session.start.moved  # a start clear of the outline is kept too
     assert session.force is None and "ft_wrench not used" in session.notes[0]  # rect1: spikes only
     track = session.observations.track("rect1")
     assert np.allclose(np.diff(track.times)[:-1], 0.04) and track.times[-1] == pytest.approx(push.duration)
