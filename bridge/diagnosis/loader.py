@@ -11,10 +11,12 @@ NOISE_SIGMAS x sigma_start, with sigma_start^2 = sigma_xy^2 + (lever sigma_yaw)^
   diagnosis divides every residual by, `residuals.estimate_noise`); the start clearance is read from one pose;
 - lever: the distance from the object's centre to the rod at t = 0 (a yaw error moves the outline there by
   lever x yaw);
-- spread: the scatter of the same rod-to-outline gap while the rod pushes the object in that recording, where
-  the true gap is zero (`StartClearance.contact_spread`): what the outline's mismatch with the real object, the
-  rod's own tracking and the motion capture leave in a measured gap. A constant calibration offset moves that
-  gap's median, not its scatter, so it does not hide itself.
+- spread: the scatter of the same rod-to-outline gap while the rod pushes the object, where the true gap is
+  zero (`StartClearance.contact_spread`), as the median over the recordings of that shape: what the outline's
+  mismatch with the real object, the rod's own tracking and the motion capture leave in a measured gap. A
+  constant calibration offset moves that gap's median, not its scatter, so it does not hide itself; the median
+  over recordings, because a push whose rod slides along a curved side or loses contact scatters by
+  millimetres on its own (ellip1 at a steep push angle: 3-4 mm), which says nothing about its start.
 NOISE_SIGMAS = 3: one-sided, a Gaussian false alarm rate of 0.13 % per recording. Not the spread of the start
 clearance across recordings: the robot starts at different distances, and a calibration offset itself spreads
 the start clearances of pushes from different sides (+D.n on one side, -D.n on the other), so a threshold from
@@ -126,23 +128,29 @@ class LoaderEvidence:
 
 def read_adjustments(prepared: Sequence[Prepared], held_out: Sequence[int] = ()) -> LoaderEvidence:
     """The loader's adjustments of every prepared trial, with each start clearance against its threshold."""
+    spreads: dict[str, list[float]] = {}
+    for p in prepared:
+        for a in p.trial.adjustments:
+            if isinstance(a, StartClearance) and a.contact_spread is not None:
+                spreads.setdefault(a.object, []).append(a.contact_spread)
+    typical = {obj: float(np.median(v)) for obj, v in spreads.items()}
     readings = []
     for p in prepared:
         for a in p.trial.adjustments:
             if isinstance(a, StartClearance):
-                threshold = start_threshold(a, _noise(p, a.object))
+                threshold = start_threshold(a, _noise(p, a.object), typical.get(a.object, 0.0))
                 if threshold is not None:
                     readings.append(StartReading(p.name, a, threshold))
     return LoaderEvidence(tuple((p.name, tuple(p.trial.adjustments)) for p in prepared), tuple(readings),
                           frozenset(prepared[i].name for i in held_out))
 
 
-def start_threshold(start: StartClearance, noise: tuple[float, float] | None) -> float | None:
-    """NOISE_SIGMAS x sigma_start (module docstring); None without a noise estimate of the object."""
+def start_threshold(start: StartClearance, noise: tuple[float, float] | None, spread: float) -> float | None:
+    """NOISE_SIGMAS x sigma_start (module docstring; `spread` the shape's typical contact scatter, m); None
+    without a noise estimate of the object."""
     if noise is None:
         return None
     sigma_xy, sigma_yaw = noise
-    spread = start.contact_spread or 0.0
     return NOISE_SIGMAS * math.sqrt(sigma_xy ** 2 + (start.lever * sigma_yaw) ** 2 + spread ** 2)
 
 
