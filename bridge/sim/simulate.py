@@ -64,6 +64,7 @@ class SimOptions:
     final_contacts: bool = False  # contacts and near pairs (PROXIMITY) at the end, for inference
     robot_force: bool = False  # the contact force on the robot at every sample (what its force sensor reads)
     joint_track: bool = False  # the simulated robot's actuated joints at every sample
+    sleep: bool = True  # objects at rest and out of reach are held, not simulated (docs/rollout.md, sleeping)
     policy: FailurePolicy = field(default_factory=FailurePolicy)
 
 
@@ -83,6 +84,8 @@ class ReplayResult:
     joint_names: tuple[str, ...] = ()  # the robot's actuated joints, the columns of joint_track
     joint_track: np.ndarray | None = None  # (T, J) simulated robot positions
     robot_force: np.ndarray | None = None  # (T, 3) N on the robot from what it touches, world frame
+    awake: tuple[tuple[float, float], ...] = ()  # sim-time spans stepped with contact dynamics (the rest: all asleep)
+    awake_wall: float = 0.0  # wall seconds spent in those spans
 
     @property
     def final_poses(self) -> dict[str, Pose]:
