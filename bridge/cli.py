@@ -95,6 +95,12 @@ def _model_args(p: argparse.ArgumentParser) -> None:
                    "fit); with --scene, its values go on top of the scene's")
 
 
+def _sleep_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--no-sleep", dest="sleep", action="store_false", help="simulate every object at every step, "
+                   "also those at rest out of the robot's reach (the full simulation: slower, the same result to "
+                   "well under a millimetre; docs/rollout.md, sleeping objects)")
+
+
 class _Parser(argparse.ArgumentParser):
     """A refused option is one line naming it, like every other bad input (argparse prints the usage first)."""
 
@@ -148,6 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--events", action="store_true", help="print predicate changes as JSON lines while replaying")
     p.add_argument("--event-period", type=positive_float, default=0.1, help="simulated seconds between on-line inferences (default %(default)s)")
     _model_args(p)
+    _sleep_arg(p)
     _sample_args(p)
     _time_limit_arg(p, "wait for no further sample (with --samples): the probabilities are over the samples done")
     _shape_arg(p)
@@ -156,11 +163,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--recordings", default=str(REPO_ROOT / "demo" / "recordings"), help="folder of recordings (default: the bundled trials)")
     p.add_argument("--out", default="out/demo", help="where to write inferred states (default: %(default)s)")
     _model_args(p)
+    _sleep_arg(p)
     p = add("view")
     p.add_argument("recording", help="recording folder or MIT .h5 file")
     p.add_argument("--out", default=None, help="HTML file (default: out/NAME/replay.html under the current folder, "
                    "NAME the recording folder's name or the .h5 file's stem)")
     _model_args(p)
+    _sleep_arg(p)
     _sample_args(p)
     _shape_arg(p)
     p = add("act")

@@ -236,6 +236,12 @@ def _rollout(recording, odb, args):
     return rollout
 
 
+def _sim_options(args):
+    from .sim.simulate import SimOptions
+
+    return SimOptions(sleep=getattr(args, "sleep", True))
+
+
 def _session(recording_path, odb, args, *, label: str, events=None):
     from .teleop import run_session
 
@@ -243,7 +249,8 @@ def _session(recording_path, odb, args, *, label: str, events=None):
     rollout = _rollout(recording, odb, args)
     progress = _replay_progress(label)
     try:
-        return recording, run_session(rollout, odb, event_period=args.event_period if events else None,
+        return recording, run_session(rollout, odb, options=_sim_options(args),
+                                      event_period=args.event_period if events else None,
                                       on_event=events, progress=progress)
     finally:
         progress.close()
@@ -284,7 +291,7 @@ def _sampled(recording_path, odb, args, *, label: str, events=None):
     try:
         with make_executor(args.executor, odb, workers=args.workers) as executor:
             return recording, sample_session(rollout, odb, args.samples, executor=executor, parameters=drawn or None,
-                                             seed=args.seed, event_period=args.event_period if events else None,
+                                             seed=args.seed, options=_sim_options(args), event_period=args.event_period if events else None,
                                              on_event=events, progress=progress, sample_progress=samples,
                                              time_limit=time_limit)
     finally:
@@ -369,7 +376,7 @@ def view(args) -> int:
     if args.samples:  # where the objects end under the drawn parameters, as ghosts
         spread = tuple(p for p in _sampled(args.recording, odb, args, label="sampling")[1].finals if p is not None)
     write_replay_html(r.world, r.telemetry, odb, out, observations=recording.observations, values=r.values,
-                      extras=r.extras, hooks=r.hooks, spread=spread)
+                      extras=r.extras, hooks=r.hooks, spread=spread, sleep=args.sleep)
     print(f"wrote {out} (open it in a browser)" + (f"; {len(spread)} sampled final poses as ghosts" if spread else ""))
     return 0
 

@@ -144,6 +144,7 @@ class Scene:
     desired_source: "DesiredState | None"
     force_source: "ConstantForces | None"
     body_names: dict[object, str]  # BodyIndex -> 'box' or 'robot/link'
+    visualized: bool = False  # a Meshcat visualizer publishes from the diagram
 
     # --- contexts -------------------------------------------------------------------------------
     def new_context(self, world: WorldState | None = None, values: SceneValues | None = None):
@@ -225,8 +226,10 @@ class Scene:
         if pushed:
             raise SceneError(f"an external force on {pushed[0]!r}, which is no free object; free objects: "
                              f"{', '.join(sorted(self.bodies)) or 'none'}", field="values")
-        if self.force_source is not None:
-            self.force_source.set_forces(self.force_source.GetMyMutableContextFromRoot(context), values.external_forces)
+        if self.force_source is not None:  # at the centre of mass the values give, where they move it
+            points = {n: p.com for n, p in values.objects.items() if p.com is not None and n in self.bodies}
+            self.force_source.set_forces(self.force_source.GetMyMutableContextFromRoot(context), values.external_forces,
+                                         points)
 
     def link_geometries(self) -> dict[str, list]:
         """Collision geometries of the robot's links by 'robot/link' name (the names contacts use)."""
@@ -369,4 +372,4 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 30))
     diagram = builder.Build()
     return Scene(world, odb, config, diagram, plant, scene_graph, bodies, geometries, instance, joints,
-                 desired, forces, body_names)
+                 desired, forces, body_names, meshcat is not None)

@@ -28,6 +28,7 @@ from ..values import Contact, Pose
 from ..world import WorldState
 from .contacts import PROXIMITY, ContactReader
 from .scene import Scene, SceneValues, from_drake
+from .sleep import Sleepers
 
 MOVED_TRANSLATION = 0.005  # m
 MOVED_ROTATION = math.radians(3.0)
@@ -137,7 +138,8 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     robot = world.robot.name if world.robot is not None else None
     want_force = options.robot_force and robot is not None
     read_contacts = options.contacts or on_sample is not None or want_force
-    reader = ContactReader(scene) if read_contacts or options.final_contacts else None
+    sleeping = options.sleep and bool(scene.bodies) and not hooks  # a hook may change anything: simulate all
+    reader = ContactReader(scene) if read_contacts or options.final_contacts or sleeping else None
     force = np.zeros((len(times), 3)) if want_force else None
     joints = np.zeros((len(times), len(actuated))) if options.joint_track and actuated else None
     supports = [(n, scene.odb.get(o.type).geometry, o.pose) for n, o in world.objects.items()
@@ -146,9 +148,15 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     worst, lag_since = 0.0, None
     simulator = Simulator(scene.diagram, context)
     simulator.Initialize()
+    sleepers = Sleepers(scene, context, options.sample_rate) if sleeping else None
+    follower = _Kinematic(scene, context) if sleeping else None
+    kinematic = False  # every object asleep: the robot follows its telemetry, nothing is stepped
+    spans, span_start, awake_wall, span_wall = [], 0.0, 0.0, wallclock.perf_counter()
     for k, t in enumerate(times):
         t = float(t)
-        if t > 0:
+        if t > 0 and kinematic:
+            follower.move_to(t)
+        elif t > 0:
             try:
                 simulator.AdvanceTo(t)
             except RuntimeError as exc:
@@ -164,6 +172,8 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             pose = from_drake(plant.EvalBodyPoseInWorld(plant_ctx, scene.bodies[name]))
             poses[name] = pose
             tracks[name][k] = (*pose.xyz, *pose.quat)
+            if sleepers is not None and name in sleepers.asleep:
+                continue  # held where it fell asleep
             _check_support(name, pose, supports, t)
             speed = float(np.linalg.norm(plant.EvalBodySpatialVelocityInWorld(plant_ctx, scene.bodies[name])
                                          .translational()))
@@ -191,7 +201,22 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             hook.update(scene, context, t, poses, state)
         contacts: list[Contact] = []
         if read_contacts:
-            contacts = reader.read(context, t)
+            contacts = ([] if kinematic else reader.read(context, t)) + (sleepers.held_contacts(t) if sleepers else [])
+        if sleepers is not None and k < len(times) - 1:
+            now = (lambda: contacts) if read_contacts else (lambda: reader.read(context, t) + sleepers.held_contacts(t))
+            # the last interval is stepped with everything awake: Drake's contact results are sampled at the
+            # last step, and the final contacts must be the full simulation's
+            if sleepers.wake_all() if k == len(times) - 2 else sleepers.update(t, now):
+                if kinematic and not sleepers.all_asleep:  # something woke: step again from the telemetry
+                    kinematic = False
+                    span_start, span_wall = t, wallclock.perf_counter()
+                    follower.move_to(t)
+                    simulator.Initialize()
+                elif not kinematic and sleepers.all_asleep:
+                    kinematic = True
+                    spans.append((span_start, t))
+                    awake_wall += wallclock.perf_counter() - span_wall
+        if read_contacts:
             if options.contacts:
                 log.extend(contacts)
             if force is not None:
@@ -200,13 +225,16 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             on_sample(t, poses, contacts)
         if progress is not None:
             progress(t, float(times[-1]))
+    if not kinematic:
+        spans.append((span_start, float(times[-1])))
+        awake_wall += wallclock.perf_counter() - span_wall
     final = tuple(reader.read(context, float(times[-1]), proximity=PROXIMITY)) if options.final_contacts else ()
     moved = tuple(name for name in names if _moved(tracks[name]))
     touched = tuple(sorted({c.other(robot) for c in log if robot and c.involves(robot)
                             and not c.other(robot).startswith(robot + "/")} - {"world"}))
     return ReplayResult(times, tracks, final, tuple(log), moved, touched, worst, float(times[-1]),
                         wallclock.perf_counter() - started, wallclock.process_time() - cpu, robot,
-                        tuple(j.name() for j in actuated), joints, force)
+                        tuple(j.name() for j in actuated), joints, force, tuple(spans), awake_wall)
 
 
 def start_replay(scene: Scene, telemetry: Telemetry | None, *, world: WorldState, values: SceneValues,
@@ -232,6 +260,45 @@ def start_replay(scene: Scene, telemetry: Telemetry | None, *, world: WorldState
         scene.set_desired(context, np.array([0.0]), np.array([held]))
     states = [hook.start(scene, context, values) for hook in hooks]
     return context, actuated, cols, states
+
+
+class _Kinematic:
+    """Moves the robot along its desired trajectory without stepping the plant: while every object sleeps no
+    contact can happen, and the desired state (telemetry through any latency) is where the robot goes. Also the
+    state the dynamic replay resumes from when something wakes."""
+
+    def __init__(self, scene: Scene, context):
+        plant = scene.plant
+        self.context, self.plant = context, plant
+        self.publish = scene.diagram.ForcedPublish if scene.visualized else None
+        self.plant_ctx = plant.GetMyMutableContextFromRoot(context)
+        self.source = scene.desired_source if scene.robot_instance is not None else None
+        if self.source is None:
+            return
+        self.source_ctx = self.source.GetMyContextFromRoot(context)
+        self.instance = scene.robot_instance
+        q0 = scene.robot_q0()
+        v0 = min(plant.get_joint(j).velocity_start() for j in plant.GetJointIndices(self.instance)
+                 if plant.get_joint(j).num_velocities() > 0)
+        joints = scene.actuated_joints()
+        self.q_index = np.array([j.position_start() - q0 for j in joints])
+        self.v_index = np.array([j.velocity_start() - v0 for j in joints])
+
+    def move_to(self, t: float) -> None:
+        self.context.SetTime(t)
+        if self.source is not None:
+            self._follow()
+        if self.publish is not None:  # the viewer's recording sees the kinematic stretch too
+            self.publish(self.context)
+
+    def _follow(self) -> None:
+        desired = self.source.get_output_port().Eval(self.source_ctx)
+        n = len(self.q_index)
+        q = self.plant.GetPositions(self.plant_ctx, self.instance)
+        v = self.plant.GetVelocities(self.plant_ctx, self.instance)
+        q[self.q_index], v[self.v_index] = desired[:n], desired[n:]
+        self.plant.SetPositions(self.plant_ctx, self.instance, q)
+        self.plant.SetVelocities(self.plant_ctx, self.instance, v)
 
 
 def _moved(track: np.ndarray) -> bool:

@@ -54,22 +54,34 @@ class DesiredState(LeafSystem):
 
 
 class ConstantForces(LeafSystem):
-    """Outputs one force per body (world frame, applied at the body's centre of mass), read from a parameter."""
+    """Outputs one force per body (world frame, at a point of the body: by default its centre of mass in the
+    object database), read from a parameter."""
 
     def __init__(self, bodies: Sequence[tuple[str, object]]):
         super().__init__()
         self._names = [n for n, _ in bodies]
         self._bodies = [b for _, b in bodies]
-        self._param = self.DeclareNumericParameter(BasicVector(np.zeros(3 * len(bodies))))
+        self._param = self.DeclareNumericParameter(BasicVector(np.zeros(6 * len(bodies))))
         self.DeclareAbstractOutputPort(
             "forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]), self._calc)
 
-    def set_forces(self, context, forces: Mapping[str, Sequence[float]]) -> None:
-        values = np.zeros(3 * len(self._names))
+    def set_forces(self, context, forces: Mapping[str, Sequence[float]],
+                   points: Mapping[str, Sequence[float]] | None = None) -> None:
+        """`forces[name]` (N, world frame) at `points[name]` (m, body frame; default: the database's centre of
+        mass)."""
+        values = np.zeros(6 * len(self._names))
         for i, name in enumerate(self._names):
             if name in forces:
-                values[3 * i: 3 * i + 3] = forces[name]
+                point = (points or {}).get(name, self._bodies[i].default_com())
+                values[6 * i: 6 * i + 6] = (*forces[name], *point)
         context.get_mutable_numeric_parameter(self._param).SetFromVector(values)
+
+    def forces(self, context) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """The forces and points written in `context` (what `set_forces` takes)."""
+        values = context.get_numeric_parameter(self._param).get_value().reshape(-1, 6)
+        written = [i for i, row in enumerate(values) if row[:3].any()]
+        return ({self._names[i]: values[i, :3].copy() for i in written},
+                {self._names[i]: values[i, 3:].copy() for i in written})
 
     def _calc(self, context, output) -> None:
         values = context.get_numeric_parameter(self._param).get_value()
@@ -78,11 +90,11 @@ class ConstantForces(LeafSystem):
             return
         forces = []
         for i, body in enumerate(self._bodies):
-            f = values[3 * i: 3 * i + 3]
+            f = values[6 * i: 6 * i + 3]
             if np.any(f):
                 applied = ExternallyAppliedSpatialForce()
                 applied.body_index = body.index()
-                applied.p_BoBq_B = body.default_com()
+                applied.p_BoBq_B = values[6 * i + 3: 6 * i + 6]
                 applied.F_Bq_W = SpatialForce(np.zeros(3), f)
                 forces.append(applied)
         output.set_value(forces)

@@ -44,6 +44,7 @@ def write_replay_html(
     hooks: Sequence = (),
     config: SimConfig = SimConfig(),
     spread: Sequence[Mapping[str, Pose]] = (),
+    sleep: bool = True,
 ) -> ReplayResult:
     """Replay with a Meshcat recording attached and save it as one HTML file (a robot that cannot follow its
     telemetry is shown, not refused: seeing where it got stuck is the point). `spread`: final poses of sampled
@@ -54,7 +55,7 @@ def write_replay_html(
         next(s.get_name() for s in scene.diagram.GetSystems() if type(s).__name__.startswith("MeshcatVisualizer")))
     visualizer.StartRecording(set_transforms_while_recording=False)
     result = simulate(scene, telemetry, world=world, values=values, hooks=hooks,
-                      options=SimOptions(policy=FailurePolicy(check_tracking=False)))
+                      options=SimOptions(sleep=sleep, policy=FailurePolicy(check_tracking=False)))
     visualizer.StopRecording()
     if observations is not None:
         _add_ghosts(meshcat, visualizer.get_mutable_recording(), world, odb, observations, result.sim_time)

@@ -108,7 +108,7 @@ def test_two_replays_of_one_diagram_run_side_by_side(scene, telemetries):
     replays advanced alternately, step by step, each follow their own telemetry and end exactly where each
     ends alone."""
     slide, turn = telemetries["slide"], telemetries["turn"]
-    alone = {name: simulate(scene, tel, options=SimOptions(end=tel.end, sample_rate=50.0))
+    alone = {name: simulate(scene, tel, options=SimOptions(end=tel.end, sample_rate=50.0, sleep=False))
              for name, tel in (("slide", slide), ("turn", turn))}
     runs = {"slide": (slide, *_start(scene, slide)), "turn": (turn, *_start(scene, turn))}
     actuated = scene.actuated_joints()

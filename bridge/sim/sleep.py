@@ -1,0 +1,221 @@
+"""Sleeping objects: do not simulate what cannot change.
+
+A teleoperation session is mostly free motion: the robot moves through the air while the objects stand still.
+An object that has been at rest for `rest_time` and that nothing moving can reach within the next samples is
+*asleep*: its contacts with the fixtures and the other sleeping objects are filtered out in the context (no
+contact query with its support, no contact constraint) and it is held where it is: velocity zero and its
+weight (and any external force) cancelled by an applied force, so its pose does not change. It wakes, from the
+exact state it fell asleep in (its velocity restored), when the robot or an awake object comes within a margin.
+(Drake's joint locking would drop its degrees of freedom too, but Drake 1.51 crashes stepping a plant with a
+locked body while any contact involves geometry on the world body, drake issue #24773.) When every object sleeps the replay skips Drake's step altogether: the
+robot is moved along its desired trajectory (telemetry through any latency), and when something wakes the
+dynamic replay resumes from there.
+
+The numbers (docs/rollout.md, "Sleeping objects"):
+- at rest: every point of the object's bounding box slower than `rest_speed` for `rest_time` of simulated
+  time. 5 mm/s is the speed at which dry friction of mu >= 0.1 stops a sliding object within
+  v^2 / (2 mu g) = 0.013 mm; lasting 0.2 s catches a bounce or a slow topple, which accelerate again.
+- within reach: the gap between oriented bounding boxes (a lower bound of the distance, from separating axes)
+  is below clearance + (closing speed) x (2 samples + the time the robot's PD needs to settle). The settling
+  time is `settle_constants` x the slowest PD time constant kd / kp of the robot's actuators: a robot that
+  resumes exactly on its telemetry has settled to where the full simulation would have it before it can
+  touch anything. `clearance` covers the compliant contact layer and the 4 mm proximity of the final contacts.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+from pydrake.multibody.math import SpatialVelocity
+
+from ..values import Contact
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class SleepRules:
+    rest_speed: float = 0.005  # m/s at any point of the object's bounding box
+    rest_time: float = 0.2  # s of simulated time at rest before falling asleep
+    clearance: float = 0.01  # m kept free around a sleeping object whatever the speeds
+    settle_constants: float = 5.0  # PD time constants a resumed robot needs to track as the full simulation does
+
+
+def _gaps(ca: np.ndarray, Ra: np.ndarray, ha: np.ndarray, C: np.ndarray, R: np.ndarray, H: np.ndarray) -> np.ndarray:
+    """A lower bound of the distance from one oriented box (centre, axes as columns, half widths) to each of M
+    others (C (M, 3), R (M, 3, 3), H (M, 3)): the largest gap of their projections onto the six face normals
+    (0 or less when they may overlap)."""
+    d = C - ca
+    M = np.einsum("ji,mjk->mik", Ra, R)  # Ra^T R_m
+    absM = np.abs(M)
+    along_a = np.abs(d @ Ra) - ha - np.einsum("mik,mk->mi", absM, H)
+    along_b = np.abs(np.einsum("mji,mj->mi", R, d)) - np.einsum("mik,i->mk", absM, ha) - H
+    return np.maximum(along_a.max(axis=1), along_b.max(axis=1))
+
+
+class Sleepers:
+    """Which objects sleep in one running context, and what they held when they fell asleep."""
+
+    def __init__(self, scene: Scene, context, sample_rate: float, rules: SleepRules = SleepRules()):
+        self.scene, self.rules = scene, rules
+        plant = scene.plant
+        self.plant_ctx = plant.GetMyMutableContextFromRoot(context)
+        self.sg_ctx = scene.scene_graph.GetMyMutableContextFromRoot(context)
+        query = scene.scene_graph.get_query_output_port().Eval(self.sg_ctx)
+        owners, bodies, X_BO, half = [], [], [], []  # one row per box: free objects and moving robot links
+        welded = {b.index() for b in plant.GetBodiesWeldedTo(plant.world_body())}
+        candidates = dict(scene.bodies)
+        if scene.robot_instance is not None:
+            for index in plant.GetBodyIndices(scene.robot_instance):
+                if index not in welded:
+                    candidates[scene.body_names[index]] = plant.get_body(index)
+        for name, body in candidates.items():
+            X_BW = plant.EvalBodyPoseInWorld(self.plant_ctx, body).inverse().GetAsMatrix4()
+            for gid in plant.GetCollisionGeometriesForBody(body):
+                obb = query.ComputeObbInWorld(gid)
+                if obb is not None:
+                    owners.append(name)
+                    X_BO.append(X_BW @ obb.pose().GetAsMatrix4())
+                    half.append(obb.half_width())
+        self.names = list(dict.fromkeys(owners))  # bodies with boxes, each once
+        self.bodies = [candidates[n] for n in self.names]
+        self.owner = np.array([self.names.index(n) for n in owners], dtype=int)
+        self.X_BO, self.half = np.array(X_BO).reshape(-1, 4, 4), np.array(half).reshape(-1, 3)
+        self.reach = np.array([max(np.linalg.norm(self.X_BO[i, :3, 3]) + np.linalg.norm(self.half[i])
+                                   for i in np.flatnonzero(self.owner == k)) for k in range(len(self.names))])
+        self.fixed_geometries = [g for b in welded for g in plant.GetCollisionGeometriesForBody(plant.get_body(b))]
+        self.horizon = 2.0 / sample_rate + rules.settle_constants * _pd_time_constant(scene)
+        self.asleep: dict[str, np.ndarray] = {}  # name -> spatial velocity [w; v] when it fell asleep
+        self.forces = scene.force_source.GetMyMutableContextFromRoot(context) if scene.force_source else None
+        self.applied = scene.force_source.forces(self.forces) if self.forces is not None else ({}, {})
+        self.held: dict[str, list[Contact]] = {}  # name -> its contacts when it fell asleep
+        self.rest_since: dict[str, float] = {}
+        self._filter = None
+
+    # --- what the simulation loop asks ---------------------------------------------------------------------
+    @property
+    def all_asleep(self) -> bool:
+        return len(self.asleep) == len(self.scene.bodies)
+
+    def held_contacts(self, t: float) -> list[Contact]:
+        """The sleeping objects' contacts as they were when they fell asleep (their state has not changed)."""
+        return [Contact(c.body_a, c.body_b, c.force, c.point, t) for cs in self.held.values() for c in cs]
+
+    def speeds(self) -> np.ndarray:
+        """Each boxed body's fastest point, |v| + |w| r (m/s), in the order of `names`."""
+        plant = self.scene.plant
+        V = np.array([plant.EvalBodySpatialVelocityInWorld(self.plant_ctx, b).get_coeffs() for b in self.bodies])
+        return np.linalg.norm(V[:, 3:], axis=1) + np.linalg.norm(V[:, :3], axis=1) * self.reach
+
+    def update(self, t: float, contacts: Callable[[], list[Contact]]) -> bool:
+        """Wake what something moving may reach, put to sleep what rests out of reach. `contacts()`: this
+        sample's contacts (what a sleeper holds; read only when something falls asleep). Returns whether
+        anything changed."""
+        speeds = self.speeds()
+        index = {n: k for k, n in enumerate(self.names)}
+        for name in self.scene.bodies:
+            if name in self.asleep or name not in index:
+                continue
+            if speeds[index[name]] > self.rules.rest_speed:
+                self.rest_since.pop(name, None)
+            else:
+                self.rest_since.setdefault(name, t)
+        X_WB = np.array([self.scene.plant.EvalBodyPoseInWorld(self.plant_ctx, b).GetAsMatrix4() for b in self.bodies])
+        X_WO = X_WB[self.owner] @ self.X_BO
+        world = (X_WO[:, :3, 3], X_WO[:, :3, :3])
+        resting = {n for n, since in self.rest_since.items() if t - since >= self.rules.rest_time - 1e-9}
+        changed, woken = False, True
+        while woken:  # a woken object may reach another sleeper
+            woken = False
+            for name in list(self.asleep):
+                if self._reached(index[name], world, speeds, resting):
+                    self._wake(name)
+                    changed = woken = True
+        falling = [n for n in resting if not self._reached(index[n], world, speeds, resting)]
+        if falling:
+            now = contacts()
+            for name in falling:
+                self._sleep(name, now)
+            changed = True
+        if changed:
+            self._refilter()
+        return changed
+
+    def wake_all(self) -> bool:
+        """Everything awake and every filter gone: the context as the full simulation would have it. Returns
+        whether anything changed."""
+        if not self.asleep:
+            return False
+        for name in list(self.asleep):
+            self._wake(name)
+        self._refilter()
+        return True
+
+    # --- internals -------------------------------------------------------------------------------------
+    def _reached(self, k: int, world: tuple[np.ndarray, np.ndarray], speeds: np.ndarray, resting: set[str]) -> bool:
+        """Whether a moving body (a robot link, an awake object not at rest) is within the margin of the `k`-th
+        body. Resting neighbours cannot reach each other: they fall asleep together."""
+        moving = np.array([i != k and n not in self.asleep and n not in resting
+                           for i, n in enumerate(self.names)])[self.owner]
+        if not moving.any():
+            return False
+        C, R = world
+        margin = self.rules.clearance + (speeds[self.owner[moving]] + speeds[k]) * self.horizon
+        for i in np.flatnonzero(self.owner == k):
+            if np.any(_gaps(C[i], R[i], self.half[i], C[moving], R[moving], self.half[moving]) < margin):
+                return True
+        return False
+
+    def _sleep(self, name: str, contacts: list[Contact]) -> None:
+        plant, body = self.scene.plant, self.scene.bodies[name]
+        # a copy: Drake returns a reference into the context's cache, gone once the context changes
+        velocity = plant.EvalBodySpatialVelocityInWorld(self.plant_ctx, body).get_coeffs().copy()
+        self.held[name] = [c for c in contacts if name in (c.body_a, c.body_b)
+                           and (c.other(name) in self.asleep or c.other(name) not in self.names)]
+        self.asleep[name] = velocity
+        self.rest_since.pop(name, None)
+        plant.SetFreeBodySpatialVelocity(self.plant_ctx, body, SpatialVelocity(np.zeros(6)))
+
+    def _wake(self, name: str) -> None:
+        plant, body = self.scene.plant, self.scene.bodies[name]
+        plant.SetFreeBodySpatialVelocity(self.plant_ctx, body, SpatialVelocity(self.asleep.pop(name)))
+        self.held.pop(name, None)
+        self.rest_since.pop(name, None)
+        for other in list(self.held):  # contacts with the woken object are computed again
+            self.held[other] = [c for c in self.held[other] if name not in (c.body_a, c.body_b)]
+
+    def _refilter(self) -> None:
+        """One transient declaration: no contact among sleeping objects and whatever is welded to the world; and
+        the forces that hold the sleepers (their weight cancelled at their centre of mass, external forces
+        off)."""
+        if self.forces is not None:
+            plant = self.scene.plant
+            forces, points = dict(self.applied[0]), dict(self.applied[1])
+            g = plant.gravity_field().gravity_vector()
+            for name in self.asleep:
+                body = self.scene.bodies[name]
+                forces[name] = -body.get_mass(self.plant_ctx) * g
+                points[name] = body.CalcCenterOfMassInBodyFrame(self.plant_ctx)
+            self.scene.force_source.set_forces(self.forces, forces, points)
+        manager = self.scene.scene_graph.collision_filter_manager(self.sg_ctx)
+        if self._filter is not None:
+            manager.RemoveDeclaration(self._filter)
+            self._filter = None
+        if self.asleep:
+            ids = [g for n in self.asleep for g in self.scene.geometries[n]] + self.fixed_geometries
+            self._filter = manager.ApplyTransient(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(ids)))
+
+
+def _pd_time_constant(scene: Scene) -> float:
+    """The slowest time constant kd / kp of the robot's PD actuators (0 without a robot)."""
+    plant = scene.plant
+    if scene.robot_instance is None:
+        return 0.0
+    constants = []
+    for a in plant.GetJointActuatorIndices(scene.robot_instance):
+        actuator = plant.get_joint_actuator(a)
+        if actuator.has_controller():
+            gains = actuator.get_controller_gains()
+            constants.append(gains.d / gains.p if gains.p > 0 else 0.0)
+    return max(constants, default=0.0)
