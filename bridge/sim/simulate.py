@@ -206,16 +206,17 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             now = (lambda: contacts) if read_contacts else (lambda: reader.read(context, t) + sleepers.held_contacts(t))
             # the last interval is stepped with everything awake: Drake's contact results are sampled at the
             # last step, and the final contacts must be the full simulation's
-            if sleepers.wake_all() if k == len(times) - 2 else sleepers.update(t, now):
-                if kinematic and not sleepers.all_asleep:  # something woke: step again from the telemetry
-                    kinematic = False
-                    span_start, span_wall = t, wallclock.perf_counter()
-                    follower.move_to(t)
-                    simulator.Initialize()
-                elif not kinematic and sleepers.all_asleep:
-                    kinematic = True
-                    spans.append((span_start, t))
-                    awake_wall += wallclock.perf_counter() - span_wall
+            sleepers.wake_all() if k == len(times) - 2 else sleepers.update(t, now)
+            free = sleepers.robot_free()  # nothing to step: every object asleep, no fixture in the robot's reach
+            if kinematic and not free:  # something woke, or the robot nears a fixture: step again from here
+                kinematic = False
+                span_start, span_wall = t, wallclock.perf_counter()
+                follower.move_to(t)
+                simulator.Initialize()
+            elif free and not kinematic:
+                kinematic = True
+                spans.append((span_start, t))
+                awake_wall += wallclock.perf_counter() - span_wall
         if read_contacts:
             if options.contacts:
                 log.extend(contacts)

@@ -85,6 +85,14 @@ class Sleepers:
         self.reach = np.array([max(np.linalg.norm(self.X_BO[i, :3, 3]) + np.linalg.norm(self.half[i])
                                    for i in np.flatnonzero(self.owner == k)) for k in range(len(self.names))])
         self.fixed_geometries = [g for b in welded for g in plant.GetCollisionGeometriesForBody(plant.get_body(b))]
+        robot = set(plant.GetBodyIndices(scene.robot_instance)) if scene.robot_instance is not None else set()
+        fixtures = [g for b in welded - robot for g in plant.GetCollisionGeometriesForBody(plant.get_body(b))]
+        fixed = [o for o in (query.ComputeObbInWorld(g) for g in fixtures) if o is not None]  # not the robot's base
+        self.fixed = (np.array([o.center() for o in fixed]).reshape(-1, 3),
+                      np.array([o.pose().rotation().matrix() for o in fixed]).reshape(-1, 3, 3),
+                      np.array([o.half_width() for o in fixed]).reshape(-1, 3))
+        self.links = np.array([n not in scene.bodies for n in self.names])[self.owner]  # robot links' boxes
+        self._last: tuple | None = None  # (world boxes, speeds) of the last update
         self.horizon = 2.0 / sample_rate + rules.settle_constants * _pd_time_constant(scene)
         self.asleep: dict[str, np.ndarray] = {}  # name -> spatial velocity [w; v] when it fell asleep
         self.forces = scene.force_source.GetMyMutableContextFromRoot(context) if scene.force_source else None
@@ -124,27 +132,46 @@ class Sleepers:
         X_WB = np.array([self.scene.plant.EvalBodyPoseInWorld(self.plant_ctx, b).GetAsMatrix4() for b in self.bodies])
         X_WO = X_WB[self.owner] @ self.X_BO
         world = (X_WO[:, :3, 3], X_WO[:, :3, :3])
-        resting = {n for n, since in self.rest_since.items() if t - since >= self.rules.rest_time - 1e-9}
         changed, woken = False, True
         while woken:  # a woken object may reach another sleeper
             woken = False
             for name in list(self.asleep):
-                if self._reached(index[name], world, speeds, resting):
+                if self._reached(index[name], world, speeds, set(self.asleep)):
                     self._wake(name)
                     changed = woken = True
-        falling = [n for n in resting if not self._reached(index[n], world, speeds, resting)]
+        # objects at rest long enough fall asleep together, unless something that stays awake may reach them
+        falling = {n for n, since in self.rest_since.items() if t - since >= self.rules.rest_time - 1e-9}
+        staying = True
+        while staying:
+            staying = {n for n in falling if self._reached(index[n], world, speeds, set(self.asleep) | falling)}
+            falling -= staying
         if falling:
             now = contacts()
-            for name in falling:
+            for name in sorted(falling):
                 self._sleep(name, now)
             changed = True
         if changed:
             self._refilter()
+        self._last = (world, speeds)
         return changed
+
+    def robot_free(self) -> bool:
+        """Whether the replay may skip stepping: every object asleep and no robot link within reach of a
+        fixture (a table or a post the robot may run into), as of the last `update`."""
+        if not self.all_asleep or self._last is None:
+            return False
+        (C, R), speeds = self._last
+        C_f, R_f, H_f = self.fixed
+        for i in np.flatnonzero(self.links):
+            margin = self.rules.clearance + speeds[self.owner[i]] * self.horizon
+            if len(C_f) and np.any(_gaps(C[i], R[i], self.half[i], C_f, R_f, H_f) < margin):
+                return False
+        return True
 
     def wake_all(self) -> bool:
         """Everything awake and every filter gone: the context as the full simulation would have it. Returns
         whether anything changed."""
+        self._last = None
         if not self.asleep:
             return False
         for name in list(self.asleep):
@@ -153,11 +180,10 @@ class Sleepers:
         return True
 
     # --- internals -------------------------------------------------------------------------------------
-    def _reached(self, k: int, world: tuple[np.ndarray, np.ndarray], speeds: np.ndarray, resting: set[str]) -> bool:
-        """Whether a moving body (a robot link, an awake object not at rest) is within the margin of the `k`-th
-        body. Resting neighbours cannot reach each other: they fall asleep together."""
-        moving = np.array([i != k and n not in self.asleep and n not in resting
-                           for i, n in enumerate(self.names)])[self.owner]
+    def _reached(self, k: int, world: tuple[np.ndarray, np.ndarray], speeds: np.ndarray, still: set[str]) -> bool:
+        """Whether a body that may move (a robot link, an object not in `still`) is within the margin of the
+        `k`-th body."""
+        moving = np.array([i != k and n not in still for i, n in enumerate(self.names)])[self.owner]
         if not moving.any():
             return False
         C, R = world

@@ -62,8 +62,10 @@ class ConstantForces(LeafSystem):
         self._names = [n for n, _ in bodies]
         self._bodies = [b for _, b in bodies]
         self._param = self.DeclareNumericParameter(BasicVector(np.zeros(6 * len(bodies))))
+        # depends on the parameter alone: computed once per change, not at every step
         self.DeclareAbstractOutputPort(
-            "forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]), self._calc)
+            "forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]), self._calc,
+            prerequisites_of_calc={self.pn_ticket()})
 
     def set_forces(self, context, forces: Mapping[str, Sequence[float]],
                    points: Mapping[str, Sequence[float]] | None = None) -> None:
