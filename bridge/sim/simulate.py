@@ -152,6 +152,7 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     follower = _Kinematic(scene, context) if sleeping else None
     kinematic = False  # every object asleep: the robot follows its telemetry, nothing is stepped
     spans, span_start, awake_wall, span_wall = [], 0.0, 0.0, wallclock.perf_counter()
+    poses: dict[str, Pose] = {}
     for k, t in enumerate(times):
         t = float(t)
         if t > 0 and kinematic:
@@ -167,13 +168,16 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             raise SimulationFailure(f"the simulation produced NaN at t = {t:.3f} s (try a smaller time step)")
         if v.size and float(np.max(np.abs(v))) > policy.max_velocity:
             raise SimulationFailure(f"the simulation diverged at t = {t:.3f} s")
+        held = poses if sleepers is not None else {}
         poses = {}
         for name in names:
+            if name in held and name in sleepers.asleep:  # held where it fell asleep
+                poses[name] = held[name]
+                tracks[name][k] = tracks[name][k - 1]
+                continue
             pose = from_drake(plant.EvalBodyPoseInWorld(plant_ctx, scene.bodies[name]))
             poses[name] = pose
             tracks[name][k] = (*pose.xyz, *pose.quat)
-            if sleepers is not None and name in sleepers.asleep:
-                continue  # held where it fell asleep
             _check_support(name, pose, supports, t)
             speed = float(np.linalg.norm(plant.EvalBodySpatialVelocityInWorld(plant_ctx, scene.bodies[name])
                                          .translational()))
@@ -183,7 +187,7 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             q_now = np.array([j.GetOnePosition(plant_ctx) for j in actuated])
             if joints is not None:
                 joints[k] = q_now
-            if cols is not None and t <= telemetry.end:
+            if cols is not None and t <= telemetry.end and not kinematic:  # kinematic: on its desired trajectory
                 err = np.abs(q_now - telemetry.sample(t)[cols])
                 j = int(np.argmax(err))
                 worst = max(worst, float(err[j]))

@@ -42,16 +42,15 @@ class SleepRules:
     settle_constants: float = 5.0  # PD time constants a resumed robot needs to track as the full simulation does
 
 
-def _gaps(ca: np.ndarray, Ra: np.ndarray, ha: np.ndarray, C: np.ndarray, R: np.ndarray, H: np.ndarray) -> np.ndarray:
-    """A lower bound of the distance from one oriented box (centre, axes as columns, half widths) to each of M
-    others (C (M, 3), R (M, 3, 3), H (M, 3)): the largest gap of their projections onto the six face normals
-    (0 or less when they may overlap)."""
-    d = C - ca
-    M = np.einsum("ji,mjk->mik", Ra, R)  # Ra^T R_m
-    absM = np.abs(M)
-    along_a = np.abs(d @ Ra) - ha - np.einsum("mik,mk->mi", absM, H)
-    along_b = np.abs(np.einsum("mji,mj->mi", R, d)) - np.einsum("mik,i->mk", absM, ha) - H
-    return np.maximum(along_a.max(axis=1), along_b.max(axis=1))
+def _gaps(Ca: np.ndarray, Ra: np.ndarray, Ha: np.ndarray, Cb: np.ndarray, Rb: np.ndarray, Hb: np.ndarray) -> np.ndarray:
+    """A lower bound of the distance between each of P oriented boxes and each of M others (centres (., 3), axes
+    as columns (., 3, 3), half widths (., 3)): the largest gap of their projections onto the six face normals
+    of the pair, (P, M); 0 or less when they may overlap."""
+    d = Cb[None, :, :] - Ca[:, None, :]
+    absM = np.abs(np.einsum("pji,mjk->pmik", Ra, Rb))  # |Ra^T Rb|
+    along_a = np.abs(np.einsum("pji,pmj->pmi", Ra, d)) - Ha[:, None, :] - np.einsum("pmik,mk->pmi", absM, Hb)
+    along_b = np.abs(np.einsum("mji,pmj->pmi", Rb, d)) - np.einsum("pmik,pi->pmk", absM, Ha) - Hb[None, :, :]
+    return np.maximum(along_a.max(axis=2), along_b.max(axis=2))
 
 
 class Sleepers:
@@ -114,7 +113,7 @@ class Sleepers:
         """Each boxed body's fastest point, |v| + |w| r (m/s), in the order of `names`."""
         plant = self.scene.plant
         V = np.array([plant.EvalBodySpatialVelocityInWorld(self.plant_ctx, b).get_coeffs() for b in self.bodies])
-        return np.linalg.norm(V[:, 3:], axis=1) + np.linalg.norm(V[:, :3], axis=1) * self.reach
+        return np.sqrt(np.square(V[:, 3:]).sum(axis=1)) + np.sqrt(np.square(V[:, :3]).sum(axis=1)) * self.reach
 
     def update(self, t: float, contacts: Callable[[], list[Contact]]) -> bool:
         """Wake what something moving may reach, put to sleep what rests out of reach. `contacts()`: this
@@ -134,16 +133,17 @@ class Sleepers:
         world = (X_WO[:, :3, 3], X_WO[:, :3, :3])
         changed, woken = False, True
         while woken:  # a woken object may reach another sleeper
-            woken = False
-            for name in list(self.asleep):
-                if self._reached(index[name], world, speeds, set(self.asleep)):
-                    self._wake(name)
-                    changed = woken = True
+            woken = {self.names[k] for k in self._reached([index[n] for n in self.asleep], world, speeds,
+                                                          set(self.asleep))}
+            for name in woken:
+                self._wake(name)
+            changed = changed or bool(woken)
         # objects at rest long enough fall asleep together, unless something that stays awake may reach them
         falling = {n for n, since in self.rest_since.items() if t - since >= self.rules.rest_time - 1e-9}
         staying = True
-        while staying:
-            staying = {n for n in falling if self._reached(index[n], world, speeds, set(self.asleep) | falling)}
+        while staying and falling:
+            staying = {self.names[k] for k in self._reached([index[n] for n in falling], world, speeds,
+                                                            set(self.asleep) | falling)}
             falling -= staying
         if falling:
             now = contacts()
@@ -162,11 +162,11 @@ class Sleepers:
             return False
         (C, R), speeds = self._last
         C_f, R_f, H_f = self.fixed
-        for i in np.flatnonzero(self.links):
-            margin = self.rules.clearance + speeds[self.owner[i]] * self.horizon
-            if len(C_f) and np.any(_gaps(C[i], R[i], self.half[i], C_f, R_f, H_f) < margin):
-                return False
-        return True
+        if not len(C_f) or not self.links.any():
+            return True
+        links = self.links
+        margin = self.rules.clearance + speeds[self.owner[links]][:, None] * self.horizon
+        return not np.any(_gaps(C[links], R[links], self.half[links], C_f, R_f, H_f) < margin)
 
     def wake_all(self) -> bool:
         """Everything awake and every filter gone: the context as the full simulation would have it. Returns
@@ -180,18 +180,20 @@ class Sleepers:
         return True
 
     # --- internals -------------------------------------------------------------------------------------
-    def _reached(self, k: int, world: tuple[np.ndarray, np.ndarray], speeds: np.ndarray, still: set[str]) -> bool:
-        """Whether a body that may move (a robot link, an object not in `still`) is within the margin of the
-        `k`-th body."""
-        moving = np.array([i != k and n not in still for i, n in enumerate(self.names)])[self.owner]
-        if not moving.any():
-            return False
-        C, R = world
-        margin = self.rules.clearance + (speeds[self.owner[moving]] + speeds[k]) * self.horizon
-        for i in np.flatnonzero(self.owner == k):
-            if np.any(_gaps(C[i], R[i], self.half[i], C[moving], R[moving], self.half[moving]) < margin):
-                return True
-        return False
+    def _reached(self, targets: list[int], world: tuple[np.ndarray, np.ndarray], speeds: np.ndarray,
+                 still: set[str]) -> set[int]:
+        """Which of the bodies `targets` (indices into `names`) a body that may move (a robot link, an object not
+        in `still`) can reach within the margin."""
+        chosen = np.zeros(len(self.names), dtype=bool)
+        chosen[targets] = True
+        rows = chosen[self.owner]
+        cols = np.array([n not in still for n in self.names])[self.owner]
+        if not rows.any() or not cols.any():
+            return set()
+        (C, R), H, owner = world, self.half, self.owner
+        margin = self.rules.clearance + (speeds[owner[rows]][:, None] + speeds[owner[cols]][None, :]) * self.horizon
+        hit = (_gaps(C[rows], R[rows], H[rows], C[cols], R[cols], H[cols]) < margin).any(axis=1)
+        return set(owner[rows][hit].tolist())
 
     def _sleep(self, name: str, contacts: list[Contact]) -> None:
         plant, body = self.scene.plant, self.scene.bodies[name]
