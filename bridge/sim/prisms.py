@@ -68,6 +68,21 @@ def mesh_prism(path: Path, scale: float) -> Prism | None:
     return Prism(bottom, z0, z1)
 
 
+@lru_cache(maxsize=64)
+def contact_outlines(path: Path, scale: float, hull: bool, vertices: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(the outline that needs a mesh of its own, the footprint) of a mesh prism: the outline when it is not convex
+    and the type does not ask for the hull (`hull` False; else Drake's `Convex` serves and this is None), the
+    footprint when the outline (or its hull) has more than `vertices` vertices (else None: one geometry)."""
+    prism = mesh_prism(path, scale)
+    outline = prism.outline
+    if hull and not prism.convex:
+        from scipy.spatial import ConvexHull
+
+        outline = outline[ConvexHull(outline).vertices]  # counter-clockwise, as scipy lists 2-D hulls
+    own = None if (hull or prism.convex) else outline
+    return own, (simplify(outline, vertices) if len(outline) > vertices else None)
+
+
 def _boundary_loop(xy: np.ndarray, faces: list[tuple[int, ...]], tol: float) -> np.ndarray | None:
     """The outer boundary loop of a planar patch of faces (edges used by one face; the other loops are holes),
     counter-clockwise, collinear vertices removed; None for no patch or a branching boundary."""
@@ -168,16 +183,24 @@ def is_star(poly: np.ndarray, centre: np.ndarray) -> bool:
 
 def is_simple(poly: np.ndarray) -> bool:
     """No two non-adjacent edges meet."""
+    poly = np.asarray(poly, dtype=float)
     n = len(poly)
     if n < 3:
         return False
-    for i in range(n):
-        a, b = poly[i], poly[(i + 1) % n]
-        for j in range(i + 2, n):
-            if i == 0 and j == n - 1:
-                continue
-            if _segments_meet(a, b, poly[j], poly[(j + 1) % n]):
-                return False
+    p, q = poly, np.roll(poly, -1, axis=0)
+
+    def cross(u, v):
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    for i in range(n - 2):
+        j = np.arange(i + 2, n if i > 0 else n - 1)  # not the edge itself, its successor or (for edge 0) predecessor
+        if j.size == 0:
+            continue
+        a, b, r, t = p[i], q[i], p[j], q[j]
+        d1, d2 = cross(b - a, r - a), cross(b - a, t - a)
+        d3, d4 = cross(t - r, a - r), cross(t - r, b - r)
+        if np.any((d1 * d2 <= 0) & (d3 * d4 <= 0) & ~((d1 == 0) & (d2 == 0))):
+            return False
     return True
 
 
@@ -189,23 +212,50 @@ def _segments_meet(p, q, r, s) -> bool:
 
 def simplify(poly: np.ndarray, n: int) -> np.ndarray:
     """At most `n` of the outline's vertices (Visvalingam: repeatedly drop the vertex whose triangle with its
-    neighbours has the least area, never one that would make the polygon self-intersect), then moved and scaled
-    about the area centroid so the area and the centroid are the outline's (what a uniform pressure over the
+    neighbours has the least area, never one whose removal would make the polygon cross itself), then moved and
+    scaled about the area centroid so the area and the centroid are the outline's (what a uniform pressure over the
     footprint depends on first)."""
-    pts = [np.asarray(p, dtype=float) for p in poly]
+    pts = np.asarray(poly, dtype=float)
+    convex = is_convex(pts)  # any subset of a convex polygon's vertices is convex too: no check needed
     while len(pts) > max(3, n):
-        m = len(pts)
-        order = sorted(range(m), key=lambda i: abs(_cross(pts[i] - pts[i - 1], pts[(i + 1) % m] - pts[i - 1])))
-        for i in order:
-            trial = pts[:i] + pts[i + 1:]
-            if signed_area(np.array(trial)) > 0 and is_simple(np.array(trial)):
-                pts = trial
+        prev, nxt = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
+        d1, d2 = pts - prev, nxt - prev
+        areas = np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+        for i in np.argsort(areas, kind="stable"):
+            if convex or _can_drop(pts, int(i)):
+                pts = np.delete(pts, int(i), axis=0)
                 break
         else:
             break  # nothing can go without breaking the polygon
-    out = np.array(pts)
-    c0, c1 = centroid(poly), centroid(out)
-    return c0 + (out - c1) * math.sqrt(signed_area(poly) / signed_area(out))
+    c0, c1 = centroid(poly), centroid(pts)
+    return c0 + (pts - c1) * math.sqrt(signed_area(poly) / signed_area(pts))
+
+
+def _can_drop(pts: np.ndarray, i: int) -> bool:
+    """Whether the polygon without vertex i stays simple and counter-clockwise: the new edge between i's neighbours
+    crosses no other edge, and no other vertex lies in the triangle the removal cuts off (or adds)."""
+    m = len(pts)
+    a, c, b = pts[i - 1], pts[i], pts[(i + 1) % m]
+    others = np.array([k for k in range(m) if k not in ((i - 2) % m, (i - 1) % m, i, (i + 1) % m)], dtype=int)
+    if others.size:
+        p, q = pts[others], pts[(others + 1) % m]
+        ab = b - a
+
+        def cross(u, v):
+            return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+        d1, d2 = cross(ab, p - a), cross(ab, q - a)
+        d3, d4 = cross(q - p, a - p), cross(q - p, b - p)
+        if np.any((d1 * d2 <= 0) & (d3 * d4 <= 0) & ~((d1 == 0) & (d2 == 0))):
+            return False
+        tri = (a, c, b) if _cross(c - a, b - a) > 0 else (a, b, c)
+        v = pts[[k for k in range(m) if k not in ((i - 1) % m, i, (i + 1) % m)]]
+        inside = np.ones(len(v), dtype=bool)
+        for u, w in zip(tri, tri[1:] + tri[:1]):
+            inside &= cross(w - u, v - u) >= 0
+        if np.any(inside):
+            return False
+    return signed_area(np.delete(pts, i, axis=0)) > 0
 
 
 def convex_pieces(poly: np.ndarray) -> list[list[int]]:

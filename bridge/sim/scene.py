@@ -320,7 +320,7 @@ def contact_shapes(obj_type: ObjectType, config: SimConfig):
     `drake_shape` (mode "prism", sim/prisms.py): a convex outline keeps Drake's `Convex` of the file, a non-convex
     one (`convex: false`) becomes a tetrahedral mesh of its own; a footprint (at most `footprint_vertices`
     vertices, the outline's area and centroid, fanned from its centre) is added when the outline has more."""
-    from .prisms import mesh_prism, prism_mesh, simplify
+    from .prisms import contact_outlines, mesh_prism, prism_mesh
 
     g = obj_type.geometry
     shape = drake_shape(obj_type)
@@ -330,17 +330,11 @@ def contact_shapes(obj_type: ObjectType, config: SimConfig):
     prism = mesh_prism(g.mesh, g.scale) if mode == "prism" else None
     if prism is None:
         return shape, None
-    outline = prism.outline
-    if g.convex and not prism.convex:  # the type asks for the hull
-        from scipy.spatial import ConvexHull
-
-        outline = outline[ConvexHull(outline).vertices]
-    convex = g.convex or prism.convex
-    exact = shape if convex else prism_mesh(outline, prism.z0, prism.z1, f"{obj_type.name}_outline")
-    if len(outline) <= vertices:
+    outline, footprint = contact_outlines(g.mesh, g.scale, g.convex, vertices)
+    exact = shape if outline is None else prism_mesh(outline, prism.z0, prism.z1, f"{obj_type.name}_outline")
+    if footprint is None:
         return exact, None
-    footprint = prism_mesh(simplify(outline, vertices), prism.z0, prism.z1, f"{obj_type.name}_footprint")
-    return exact, footprint
+    return exact, prism_mesh(footprint, prism.z0, prism.z1, f"{obj_type.name}_footprint")
 
 
 def filter_footprints(plant, scene_graph, footprints: dict) -> None:
