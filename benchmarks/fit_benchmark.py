@@ -5,8 +5,10 @@
    rho = 2) runs 30 generations; its best error is the target. Reported: how many simulations the ES, CMA-ES
    (cma's default population) and Levenberg-Marquardt (on the residual of the same error) need to reach that
    target, from the same wrong start and seed.
-2. Workers. The wall time of one fixed fit with a process pool of 1 and of 2 workers (pools started and warmed
-   up first, so the time is the fit's). Target: 2 workers >= 1.8x faster.
+2. Workers. The wall time of one fixed fit with a process pool of 1 worker, of 2 workers, and a dask
+   `LocalCluster` of 2 worker processes (`make_executor("dask", ...)`; skipped, and said so, when the `distributed`
+   extra is not installed); each started and warmed up first, so the time is the fit's, and each with an empty
+   rollout cache (every simulation of the fit is run). Target: 2 workers >= 1.8x faster than 1, on either backend.
 3. Real data. MIT planar pushing (Yu, Bauza, Fazeli, Rodriguez, IROS 2016): fit the surface's and the pusher
    rod's friction on most trials, report the held-out error before (nominal values) and after.
 
@@ -27,6 +29,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -35,6 +39,7 @@ from bridge.fit.fit import FitResult, fit_parameters  # noqa: E402
 from bridge.fit.synthetic import TRUE_VALUES, push_trials, recovery, recovery_spec  # noqa: E402
 from bridge.odb import load_object_database  # noqa: E402
 from bridge.params import parse_params  # noqa: E402
+from bridge.errors import BridgeError  # noqa: E402
 from bridge.rollout import make_executor  # noqa: E402
 
 SPEEDUP_TARGET = 1.8
@@ -120,9 +125,13 @@ class _Recording:
         self.executor, self.kind, self.workers, self.odb = executor, executor.kind, executor.workers, executor.odb
         self.batches = []
 
+    @property
+    def cache(self):
+        return self.executor.cache
+
     def run(self, jobs):
         outcomes = self.executor.run(jobs)
-        self.batches.append([o.cpu_time for o in outcomes])
+        self.batches.append([o.cpu_time for o in outcomes if not o.cached])
         return outcomes
 
 
@@ -139,35 +148,60 @@ def scheduled_time(batches: list[list[float]], workers: int) -> float:
     return total
 
 
+BACKENDS = (("process", 1), ("process", 2), ("dask", 2))
+
+
+def _warm(executor, trials, spec) -> None:
+    """Import Drake and build the diagrams in every worker: distinct jobs (the cache would answer equal ones
+    without a worker), then an empty cache, so the fit's own simulations are all run."""
+    from bridge.rollout.rollout import RolloutCache
+
+    units = [np.full(spec.dim, 0.3 + 0.4 * k / max(1, 4 * executor.workers)) for k in range(4 * executor.workers)]
+    evaluate(executor, trials, spec, [spec.from_unit(u) for u in units])
+    executor.cache = RolloutCache()
+
+
 def part_workers(odb, cfg: dict, seed: int) -> dict:
     trials = push_trials(odb)
     spec = recovery_spec()
-    runs = []
+    runs, skipped = [], None
     for repeat in range(cfg["speed_repeats"]):
-        for workers in (1, 2):
-            with make_executor("process", odb, workers=workers) as executor:
-                evaluate(executor, trials, spec, [None] * (2 * workers))  # warm up: import Drake, build the diagrams
+        for kind, workers in BACKENDS:
+            if kind == "dask" and skipped:
+                continue
+            try:
+                executor = make_executor(kind, odb, workers=workers)
+            except BridgeError as exc:  # dask is an optional extra
+                skipped = str(exc)
+                continue
+            with executor:
+                _warm(executor, trials, spec)
                 capacity, load = parallel_capacity(), os.getloadavg()[0]
                 recorder = _Recording(executor)
                 started = time.perf_counter()
                 result = fit_parameters(trials, spec, odb=odb, executor=recorder, optimizer="cmaes", seed=seed,
                                         generations=cfg["speed_generations"], popsize=cfg["speed_popsize"],
                                         hold_out=0, patience=cfg["speed_generations"], tol=0.0)
-                runs.append({"workers": workers, "wall_s": round(time.perf_counter() - started, 3),
+                runs.append({"backend": f"{kind} {workers}", "workers": workers,
+                             "wall_s": round(time.perf_counter() - started, 3),
                              "cpu_s": round(sum(map(sum, recorder.batches)), 3), "capacity": round(capacity, 2),
-                             "load_average": round(load, 2), "batches": recorder.batches})
-    best = {w: min(r["wall_s"] for r in runs if r["workers"] == w) for w in (1, 2)}
-    one = [r for r in runs if r["workers"] == 1]
+                             "load_average": round(load, 2), "rollouts": dict(result.rollouts),
+                             "batches": recorder.batches})
+    backends = list(dict.fromkeys(r["backend"] for r in runs))
+    best = {b: min(r["wall_s"] for r in runs if r["backend"] == b) for b in backends}
+    one = [r for r in runs if r["backend"] == "process 1"]
     batches = one[0]["batches"]
-    cpu_per_sim = {w: sum(r["cpu_s"] for r in runs if r["workers"] == w) / sum(
-        len(b) for r in runs if r["workers"] == w for b in r["batches"]) for w in (1, 2)}
+    cpu_per_sim = {b: sum(r["cpu_s"] for r in runs if r["backend"] == b) / sum(
+        len(x) for r in runs if r["backend"] == b for x in r["batches"]) for b in backends}
     estimate = scheduled_time(batches, 1) / scheduled_time(batches, 2)
     driver_share = 1 - one[0]["cpu_s"] / one[0]["wall_s"]
     for r in runs:
         del r["batches"]
-    return {"simulations": result.simulations, "runs": runs, "wall_s_1_worker": best[1], "wall_s_2_workers": best[2],
-            "speedup": round(best[1] / best[2], 3), "cpu_s_per_simulation": {str(w): round(v, 4)
-                                                                           for w, v in cpu_per_sim.items()},
+    speedups = {b: round(best["process 1"] / best[b], 3) for b in backends if b != "process 1"}
+    return {"simulations": result.simulations, "runs": runs, "wall_s": best, "speedups": speedups,
+            "wall_s_1_worker": best["process 1"], "wall_s_2_workers": best.get("process 2"),
+            "speedup": speedups.get("process 2"), "dask_speedup": speedups.get("dask 2"), "dask_skipped": skipped,
+            "cpu_s_per_simulation": {b: round(v, 4) for b, v in cpu_per_sim.items()},
             "estimated_idle_speedup": round(estimate, 3), "driver_share_1_worker": round(driver_share, 3),
             "target_speedup": SPEEDUP_TARGET, "cpus": os.cpu_count(),
             "machine_parallel_capacity": min(r["capacity"] for r in runs)}
@@ -250,16 +284,21 @@ def print_optimizers(r: dict) -> None:
 
 
 def print_workers(r: dict) -> None:
-    ok = "meets" if r["speedup"] >= r["target_speedup"] else "MISSES"
-    print(f"\n2. workers ({r['simulations']} simulations per fit, process pool, {r['cpus']} CPUs): best of "
-          f"{len(r['runs']) // 2}: 1 worker {r['wall_s_1_worker']:.1f} s, 2 workers {r['wall_s_2_workers']:.1f} s, "
-          f"measured speedup {r['speedup']:.2f}x ({ok} the {r['target_speedup']}x target)")
+    repeats = sum(1 for run in r["runs"] if run["backend"] == "process 1")
+    print(f"\n2. workers ({r['simulations']} simulations per fit, {r['cpus']} CPUs), best of {repeats}:")
+    for backend, wall in r["wall_s"].items():
+        speedup = r["speedups"].get(backend)
+        ok = "" if speedup is None else (f", {speedup:.2f}x ({'meets' if speedup >= r['target_speedup'] else 'MISSES'}"
+                                         f" the {r['target_speedup']}x target)")
+        print(f"   {backend:<10} {wall:7.1f} s{ok}")
+    if r["dask_skipped"]:
+        print(f"   dask: skipped ({r['dask_skipped']})")
     for run in r["runs"]:
-        print(f"   run: {run['workers']} worker(s) {run['wall_s']:.1f} s wall, {run['cpu_s']:.1f} s CPU in simulations; "
+        print(f"   run: {run['backend']} {run['wall_s']:.1f} s wall, {run['cpu_s']:.1f} s CPU in simulations; "
               f"machine: 2 processes {run['capacity']:.2f}x as fast as 1, load average {run['load_average']:.1f}")
     cpu = r["cpu_s_per_simulation"]
-    print(f"   CPU per simulation: {cpu['1'] * 1e3:.0f} ms with 1 worker, {cpu['2'] * 1e3:.0f} ms with 2 (no parallel "
-          f"overhead when equal); on idle cores the pool's schedule of these tasks gives "
+    print("   CPU per simulation: " + ", ".join(f"{v * 1e3:.0f} ms ({b})" for b, v in cpu.items())
+          + " (no parallel overhead when equal); on idle cores the pool's schedule of these tasks gives "
           f"{r['estimated_idle_speedup']:.2f}x (1-worker wall time not spent simulating - driver, IPC, waiting for a busy "
           f"machine: "
           f"{100 * r['driver_share_1_worker']:.0f} %)")

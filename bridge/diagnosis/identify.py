@@ -38,7 +38,7 @@ from .effects import EFFECTS, Evidence, get_effect
 from .loader import LoaderEvidence, raw_offsets, read_adjustments
 from .locate import Localisation, locate
 from .runs import Runner, chi2_of
-from .search import Evaluator, FitResult, bic, correlation_time, fit, pose_error_of, screen
+from .search import Evaluator, FitResult, bic, correlation_time, differenced, fit, pose_error_of, screen
 
 MAX_FULL_FITS = 4  # candidates fitted fully after screening
 NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise floor
@@ -134,6 +134,7 @@ class Identification:
     held_out_localisation: Localisation | None = None
     stopped: str | None = None  # "time limit": the search was cut short, the verdict is over what was tried
     loader: LoaderEvidence | None = None  # what the loader changed in each recording, read as evidence
+    rollouts: dict[str, int] = field(default_factory=dict)  # {simulated, cached}: of `simulations`, run and cached
 
     @property
     def partial(self) -> bool:
@@ -170,6 +171,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     over what was tried (`stopped`, and a note saying so)."""
     started = time.perf_counter()
     sims0 = runner.simulations
+    rollouts0 = runner.rollouts()
+
+    def rollouts() -> dict[str, int]:
+        now = runner.rollouts()
+        return {k: now[k] - rollouts0[k] for k in now}
     say = log or (lambda message: None)
     limit = limit or TimeLimit()
     step = [0, None]
@@ -216,7 +222,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         scored = _held_out(runner, held_out, scored)
         return Identification("none", tuple(scored), loc, _names(runner, train), _names(runner, held_out), 1.0, (),
                               tuple(notes), runner.simulations - sims0, time.perf_counter() - started, held_loc,
-                              loader=loader)
+                              loader=loader, rollouts=rollouts())
 
     allowed = set(options.effects or EFFECTS) - {"none"}
     focus = ranked_objects[:1]
@@ -235,9 +241,12 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     friction_targets = [t for t in (support_of(world, odb, focus[0]), focus[0]) if t]
     friction_params = [Parameter.of("friction", t, world, odb, effect="friction") for t in friction_targets]
     base_space = ParameterSet(tuple(friction_params), "the ordinary parameters")
+    # its Jacobian at the optimum is differenced: the screens below start there, and a candidate at its null
+    # values is this model (`Evaluator.canonical`), so their Jacobians' friction columns are these
     base_fit = fit(ev, base_space, np.zeros(base_space.dim), max_iterations=options.max_iterations + FRICTION_EXTRA,
-                   optimizer=options.optimizer, should_stop=limit.expired)
+                   optimizer=options.optimizer, should_stop=limit.expired, final_jacobian=True)
     friction_scored = _from_fit("friction", None, base_fit, world, odb)
+    fits = {("friction", None): base_fit}  # the fit of each model, by (effect, target): its Jacobian for the winner
     say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}"
         + (" (cut short by the time limit)" if base_fit.stopped else ""))
     advance()
@@ -256,8 +265,9 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         # each seed with the fitted coefficients and with the nominal ones (the friction fit may have taken up
         # what the effect explains, e.g. a heavier object's larger push force); smooth effects then take one
         # Gauss-Newton step from the best start of each
-        starts = [space.to_normal({**frictions, **seed}) for seed in effect.seeds(evidence, c.target)
-                  for frictions in (fitted_friction, nominal_friction)]
+        starts = [_with_friction(space.to_normal({**frictions, **seed}), x_f)
+                  for seed in effect.seeds(evidence, c.target)
+                  for frictions, x_f in ((fitted_friction, base_fit.x), (nominal_friction, None))]
         if not starts:
             screened.append(Candidate(c.effect, c.target, c.prior, math.inf, {}, "no seed from the localisation"))
             continue
@@ -298,6 +308,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         chis = [ev.chi2(_model(space, x)) for x in starts]
         result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations,
                      optimizer=options.optimizer, should_stop=limit.expired)
+        fits[(c.effect, c.target)] = result
         scored = _with_raw_offset(_held_out(runner, held_out, [_from_fit(c.effect, c.target, result, world, odb)])[0],
                                   evidence.loader_shift)
         frictions = {s.name: s.value for s in scored.model if s.kind == "friction" and s.effect == "friction"}
@@ -308,6 +319,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
             base_fit = fit(ev, base_space, x_f, max_iterations=FRICTION_EXTRA, optimizer=options.optimizer,
                            should_stop=limit.expired)
             fitted[1] = _held_out(runner, held_out, [_from_fit("friction", None, base_fit, world, odb)])[0]
+            fits[("friction", None)] = base_fit
             say(f"friction refitted from {c.effect}'s coefficients: {_fmt(base_fit.values())}, "
                 f"rms {fitted[1].rms:.1f}")
         fitted.append(scored)
@@ -329,6 +341,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     verdict, check = _verdict(scored, bool(held_out), world, odb)
     if check:
         notes.append(check)
+    scored = _winner_uncertainty(ev, scored, verdict, fits)
     raw = {k[len("raw "):-len(" mm")]: v for k, v in next(s for s in scored if s.effect == verdict).derived.items()
            if k.startswith("raw ") and k.endswith(" mm")}
     if raw:
@@ -340,7 +353,30 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                      f"{runner.failures[0][0]}: {runner.failures[0][1]})")
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
-                          held_loc, stopped, loader)
+                          held_loc, stopped, loader, rollouts())
+
+
+def _winner_uncertainty(ev: Evaluator, scored: list[Scored], verdict: str, fits: dict) -> list[Scored]:
+    """The winner's uncertainty from a finite-difference Jacobian at its optimum (the fits leave a secant estimate
+    there, `search.fit`; it is good enough for the models not chosen, whose std is only reported)."""
+    from dataclasses import replace
+
+    winner = next(s for s in scored if s.effect == verdict)
+    result = fits.get(("friction", None) if verdict == "friction" else (verdict, winner.target))
+    if verdict == "none" or result is None or result.differenced:
+        return scored
+    std = differenced(ev, result).std()
+    return [replace(s, std={k: std[k] for k in s.std}, model_std=std) if s is winner else s for s in scored]
+
+
+def _with_friction(x: np.ndarray, friction_x: np.ndarray | None) -> np.ndarray:
+    """x with the fitted friction coefficients' own coordinates (they lead every candidate's space), not their
+    values converted back and forth: the same point, so the same model as the friction fit's."""
+    if friction_x is None:
+        return x
+    x = np.array(x, dtype=float)
+    x[:len(friction_x)] = friction_x
+    return x
 
 
 def _space(friction: Sequence[Parameter], effect, target: str, world, odb) -> ParameterSet:

@@ -79,9 +79,10 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     files: dict[str, Path] = {}
     data: dict[str, Any]
     failures = {"count": len(runner.failures), "first": [f"{t}: {m}" for t, m in runner.failures[:3]]}
+    rollouts = runner.rollouts()  # the whole diagnosis, the replays of the plots included
     if out is None:
         data = diagnosis_json(ident, failures=failures)
-        data.update(limit.to_json(ident.partial))
+        data.update(limit.to_json(ident.partial), rollouts=rollouts)
         return DiagnosisRun(ident, data, files, after)
     out = Path(out)
     scene_path = out / SCENE_FILE
@@ -92,7 +93,7 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
                                               "recordings": list(ident.train) + list(ident.held_out)},
                                              std=ident.winner.model_std)
     data = diagnosis_json(ident, scene_file=SCENE_FILE if others[scene_path] else None, failures=failures)
-    data.update(limit.to_json(ident.partial))
+    data.update(limit.to_json(ident.partial), rollouts=rollouts)
     data["seconds"] = round(time.perf_counter() - started, 2)
     figures: dict[Path, Content] = {}
     if plots:

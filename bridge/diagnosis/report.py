@@ -64,6 +64,7 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
         "notes": list(ident.notes),
         **loader_json(ident),
         "simulations": int(ident.simulations),
+        "rollouts": {k: int(v) for k, v in (ident.rollouts or {"simulated": ident.simulations, "cached": 0}).items()},
         "seconds": round(ident.seconds, 2),
     }
 
@@ -128,7 +129,8 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
     if r is not None:
         lines += [f"- runner-up: `{r.effect}` on `{r.target}`; margin {ident.margin:.1f} (log evidence, BIC/2)"]
     lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"
-              f"; {ident.simulations} simulations in {ident.seconds:.0f} s", ""]
+              f"; {ident.simulations} simulations ({data['rollouts']['simulated']} run, {data['rollouts']['cached']} from "
+              f"the rollout cache) in {ident.seconds:.0f} s", ""]
     for note in ident.notes:
         lines.append(f"> {note}")
     if ident.notes:

@@ -124,9 +124,16 @@ class Runner:
                  sample_rate: float = SAMPLE_RATE):
         self.prepared = list(prepared)
         self.odb, self.executor, self.sample_rate = odb, executor, sample_rate
-        self.simulations = 0
+        self.simulations = 0  # asked for; `rollouts()` says how many were run and how many the cache answered
         self.failures: list[tuple[str, str]] = []  # (trial, message) of every failed replay
         self.wall = 0.0
+        self._counts0 = executor.cache.counts()
+
+    def rollouts(self) -> dict[str, int]:
+        """Replays simulated for this runner and answered by the executor's rollout cache (a repeated job: the
+        nominal model in several stages, an optimiser's start evaluated again)."""
+        now = self.executor.cache.counts()
+        return {k: now[k] - self._counts0[k] for k in now}
 
     def index(self, name: str) -> int:
         for i, p in enumerate(self.prepared):

@@ -15,24 +15,34 @@ import numpy as np
 
 from ..optim import minimise
 from ..optim.lm import gauss_newton_step, jacobian, levenberg_marquardt
-from ..params import Model, ParameterSet
+from ..params import Model, ParameterSet, canonical_model
 from ..rollout.compare import DEFAULT_C, PoseError, error_of_residuals
 from .runs import Run, Runner, vector_of
 
+PATIENCE = 3  # Levenberg-Marquardt evaluations in a row that gain less than GAIN end a fit
+GAIN = 1e-3  # relative chi^2: a gain below this changes no comparison the diagnosis makes (MIN_GAIN is 20 %)
+
 
 class Evaluator:
-    """Runs models on the training trials, remembering every result."""
+    """Runs models on the training trials, remembering every result by the model's canonical form
+    (`bridge.params.canonical_model`: settings that reproduce the world model left out), so a candidate at its
+    null values is the friction model it extends, not a new simulation."""
 
     def __init__(self, runner: Runner, indices: Sequence[int]):
         self.runner, self.indices = runner, list(indices)
         self.cache: dict[Model, tuple[Run, ...]] = {}
+        self.world = runner.prepared[self.indices[0]].world if self.indices else None
+
+    def canonical(self, model: Model) -> Model:
+        return canonical_model(model, self.world, self.runner.odb) if self.world is not None else tuple(model)
 
     def runs_many(self, models: Sequence[Model]) -> list[tuple[Run, ...]]:
-        todo = [m for m in dict.fromkeys(models) if m not in self.cache]
+        keys = [self.canonical(m) for m in models]
+        todo = [k for k in dict.fromkeys(keys) if k not in self.cache]
         if todo:
-            for m, runs in zip(todo, self.runner.run_many(todo, self.indices)):
-                self.cache[m] = tuple(runs)
-        return [self.cache[m] for m in models]
+            for k, runs in zip(todo, self.runner.run_many(todo, self.indices)):
+                self.cache[k] = tuple(runs)
+        return [self.cache[k] for k in keys]
 
     def runs(self, model: Model) -> tuple[Run, ...]:
         return self.runs_many([model])[0]
@@ -60,6 +70,7 @@ class FitResult:
     runs: tuple[Run, ...]
     evaluations: int  # models evaluated (each on every training trial)
     stopped: bool = False  # cut short by `should_stop` (the best point so far)
+    differenced: bool = True  # `jacobian` is a finite difference at x; else the search's secant estimate there
 
     @property
     def chi2(self) -> float:
@@ -91,10 +102,15 @@ class FitResult:
 
 
 def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: int = 6,
-        optimizer: str = "lm", should_stop: Callable[[], bool] | None = None) -> FitResult:
+        optimizer: str = "lm", should_stop: Callable[[], bool] | None = None, secant: bool = True,
+        final_jacobian: bool = False) -> FitResult:
     """Fit `space` from x0 (normalised) with `optimizer` (`lm`: Levenberg-Marquardt, scipy's bounded trust-region
-    solver; `cmaes`/`es`: `max_iterations` generations); keeps the best point seen. `should_stop` (asked between
-    evaluations) ends the fit early with the best point so far."""
+    solver, its Jacobian differenced at the start and carried along the steps by Broyden updates unless `secant`
+    is False, ending once PATIENCE evaluations in a row gained less than GAIN; `cmaes`/`es`: `max_iterations`
+    generations); keeps the best point seen. The Jacobian at the best point is then the secant estimate
+    (`differenced` False; `differenced(ev, result)` replaces it by a finite difference where the uncertainty
+    matters), unless `final_jacobian`. `should_stop` (asked between evaluations) ends the fit early with the best
+    point so far."""
     before = len(ev.cache)
     if space.dim == 0:
         runs = ev.runs(space.model())
@@ -103,14 +119,30 @@ def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: i
     residuals = ev.residuals(space)
     if optimizer == "lm":
         result = levenberg_marquardt(residuals, x0, lower, upper, max_iterations=max_iterations,
-                                     should_stop=should_stop)
+                                     should_stop=should_stop, secant=secant, patience=PATIENCE if secant else None,
+                                     gain=GAIN, final_jacobian=final_jacobian or not secant)
         x, f, J, stopped = result.x, result.vector, result.jacobian, result.stopped
+        if not result.differenced:
+            return FitResult(space, x, f, J, ev.runs(space.model(space.from_normal(x))), len(ev.cache) - before,
+                             stopped, differenced=False)
     else:
         found = minimise(optimizer, lambda values: [vector_of(r) for r in ev.runs_many([space.model(v) for v in values])],
                          space, space.from_normal(x0), iterations=max_iterations, should_stop=should_stop)
         x, f, stopped = space.to_normal(found.values), found.vector, found.stopped
         J = None if stopped else jacobian(residuals, x, f, upper)
     return FitResult(space, x, f, J, ev.runs(space.model(space.from_normal(x))), len(ev.cache) - before, stopped)
+
+
+def differenced(ev: Evaluator, result: FitResult) -> FitResult:
+    """`result` with the finite-difference Jacobian at its point (the uncertainty of the parameters is read from
+    it), computed now if the search left a secant estimate there."""
+    from dataclasses import replace
+
+    if result.differenced or result.space.dim == 0 or result.stopped:
+        return result
+    _, upper = result.space.normal_bounds()
+    return replace(result, jacobian=jacobian(ev.residuals(result.space), result.x, result.vector, upper),
+                   differenced=True)
 
 
 def screen(ev: Evaluator, space: ParameterSet, x0: np.ndarray) -> tuple[np.ndarray, float]:

@@ -109,6 +109,7 @@ class FitResult:
     time_limit: float | None = None  # s, when one was set
     stopped_after: float | None = None  # s of search when the time limit stopped it
     max_generations: int | None = None  # what the optimiser was allowed
+    rollouts: Mapping[str, int] = field(default_factory=dict)  # of `simulations`: {simulated, cached} (rollout cache)
 
     @property
     def partial(self) -> bool:
@@ -181,6 +182,7 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
     fit_set, held_set = [by_name[n] for n in fit_names], [by_name[n] for n in held_names]
     own_executor = executor is None
     executor = executor or make_executor("serial", odb)
+    counts0 = executor.cache.counts()
     path = None if checkpoint is None else Path(checkpoint) / CHECKPOINT_FILE
     fingerprint = _fingerprint(spec, fit_names, held_names, optimizer, seed, c)
     try:
@@ -224,6 +226,7 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
             generation([spec.from_unit(u) for u in candidates], candidates)
         best = spec.from_unit(opt.best_x)
         after_rows = evaluate(executor, fit_set + held_set, spec, [best], c=c)[0].errors
+        rollouts = {k: v - counts0[k] for k, v in executor.cache.counts().items()}
     finally:
         if own_executor:
             executor.close()
@@ -243,7 +246,8 @@ def fit_parameters(trials: Sequence[Trial], spec: ParameterSet, *, odb: ObjectDa
         history=opt.history, generation_errors=tuple(state.generation_errors),
         wall_time=wallclock.perf_counter() - started, executor=executor.kind, workers=executor.workers,
         notes=tuple(dict.fromkeys(n for t in trials for n in t.notes)), std=_uncertainty(spec, opt),
-        stopped=stopped, time_limit=limit.seconds, stopped_after=limit.stopped_after, max_generations=max_generations)
+        stopped=stopped, time_limit=limit.seconds, stopped_after=limit.stopped_after, max_generations=max_generations,
+        rollouts=rollouts)
 
 
 def _uncertainty(spec: ParameterSet, opt) -> dict[str, float]:
@@ -399,7 +403,9 @@ class _RunState:
 def result_summary(result: FitResult) -> str:
     """One paragraph for the terminal."""
     lines = [f"{result.optimizer}: {result.generations} generations, {result.evaluations} candidates, "
-             f"{result.simulations} simulations ({result.failures} failed), {result.wall_time:.1f} s on "
+             f"{result.simulations} simulations ({result.failures} failed"
+             + (f", {result.rollouts['cached']} from the rollout cache" if result.rollouts.get("cached") else "")
+             + f"), {result.wall_time:.1f} s on "
              f"{result.workers} {result.executor} worker(s); stopped: {result.stop_reason}"]
     if result.partial:
         lines.append("  partial result: the best candidate when the time limit stopped the search (not converged)")

@@ -80,6 +80,7 @@ def fit_json(result: FitResult) -> dict[str, Any]:
     data.update({
         "optimizer": result.optimizer, "seed": result.seed, "generations": result.generations,
         "evaluations": result.evaluations, "simulations": result.simulations, "failures": result.failures,
+        "rollouts": {k: int(v) for k, v in (result.rollouts or {"simulated": result.simulations, "cached": 0}).items()},
         "stop_reason": result.stop_reason, "wall_time_s": round(result.wall_time, 3),
         "max_generations": result.max_generations, "stopped": result.stopped, "time_limit_s": result.time_limit,
         **({"stopped_after_s": round(result.stopped_after, 2)} if result.stopped_after is not None else {}),

@@ -12,11 +12,16 @@ from ..values import Pose
 from .types import Geometry
 
 
-@lru_cache(maxsize=64)
 def mesh_vertices(path: Path, scale: float) -> np.ndarray:
     """Vertices of an OBJ file (only 'v' lines are needed for extents). A file that is no OBJ mesh (random
     bytes, other text, no faces, a vertex that is not three finite numbers, a face naming a missing vertex) is an
     `ObjectDatabaseError` naming it: Drake would fail on it later without saying which file."""
+    return mesh_data(path, scale)[0]
+
+
+@lru_cache(maxsize=64)
+def mesh_data(path: Path, scale: float) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:
+    """Vertices (scaled) and faces (0-based vertex indices) of an OBJ file, validated as `mesh_vertices` says."""
     src = str(path)
     try:
         text = Path(path).read_bytes().decode("utf-8")
@@ -45,6 +50,7 @@ def mesh_vertices(path: Path, scale: float) -> np.ndarray:
     if len(rows) < 3 or not faces:
         raise ObjectDatabaseError(f"not an OBJ mesh: {len(rows)} vertex line(s) ('v x y z') and {len(faces)} face "
                                   "line(s) ('f i j k'); a mesh needs at least 3 and 1", source=src)
+    indexed = []
     for number, corners in faces:
         try:
             index = [int(c.split("/")[0]) for c in corners]
@@ -53,7 +59,10 @@ def mesh_vertices(path: Path, scale: float) -> np.ndarray:
         if len(index) < 3 or not all(1 <= i <= len(rows) or -len(rows) <= i <= -1 for i in index):
             raise ObjectDatabaseError(f"not an OBJ mesh: face {' '.join(corners)[:40]!r} does not name 3 or more of "
                                       f"the {len(rows)} vertices", source=src, field=f"line {number}")
-    return np.asarray(rows, dtype=float) * scale
+        indexed.append(tuple(i - 1 if i > 0 else len(rows) + i for i in index))
+    vertices = np.asarray(rows, dtype=float) * scale
+    vertices.setflags(write=False)  # cached: shared by every caller
+    return vertices, tuple(indexed)
 
 
 def support(geometry: Geometry, pose: Pose, direction: np.ndarray) -> float:

@@ -44,7 +44,8 @@ from .ranges import RANGES, joint_problem
 from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl, RobotSpec, SIERef
 
 TYPE_KEYS = {"parent", "pddl_type", "abstract", "fixed", "geometry", "physics", "predicates", "robot", "doc"}
-GEOMETRY_KEYS = {"shape", "size", "mesh", "scale", "convex", "color"}
+GEOMETRY_KEYS = {"shape", "size", "mesh", "scale", "convex", "color", "contact", "footprint_vertices"}
+CONTACT_MODES = ("prism", "drake")  # bridge.sim.prisms.MODES
 PHYSICS_KEYS = {"mass", "density", "com", "inertia", "friction", "dynamic_friction", "hydroelastic_modulus", "dissipation",
                 "friction_sd", "mass_sd", "com_sd"}
 PREDICATE_KEYS = {"params", "subject", "sie"}
@@ -188,7 +189,19 @@ class _Reader:
         if shape == "mesh":
             mesh, unresolved = self.mesh_path(body.get("mesh"), raw)
             scale = _number(body.get("scale", 1.0), src, f"{fld}.scale", positive=True)
-            return Geometry(shape, (), mesh, scale, bool(body.get("convex", True)), unresolved, color)  # type: ignore[arg-type]
+            contact = body.get("contact")
+            if contact is not None and contact not in CONTACT_MODES:
+                raise ObjectDatabaseError(f"contact {contact!r} is not one of {', '.join(CONTACT_MODES)}", source=src,
+                                          field=f"{fld}.contact")
+            vertices = body.get("footprint_vertices")
+            if vertices is not None and (not isinstance(vertices, int) or isinstance(vertices, bool) or vertices < 3):
+                raise ObjectDatabaseError(f"footprint_vertices must be a whole number >= 3, got {vertices!r}",
+                                          source=src, field=f"{fld}.footprint_vertices")
+            return Geometry(shape, (), mesh, scale, bool(body.get("convex", True)), unresolved, color,  # type: ignore[arg-type]
+                            contact, vertices)
+        for key in ("contact", "footprint_vertices"):
+            if key in body:
+                raise ObjectDatabaseError(f"{key} applies to mesh geometry only", source=src, field=f"{fld}.{key}")
         size = tuple(_numbers(body.get("size"), SIZE_LENGTH[shape], src, f"{fld}.size", positive=True))
         return Geometry(shape, size, color=color)  # type: ignore[arg-type]
 

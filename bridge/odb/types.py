@@ -19,6 +19,8 @@ class Geometry:
     box: `size` = (x, y, z) full lengths; cylinder: (radius, length) along z; sphere: (radius,);
     mesh: `mesh` path (OBJ), scaled by `scale`, `convex` collision hull when True.
     A mesh given as ``dataset://NAME/...`` whose dataset root is unknown has `mesh` None and `unresolved` set.
+    `contact` ("prism" | "drake") and `footprint_vertices` choose a compliant mesh prism's contact geometry for this
+    type (None: the simulator's settings, `SimConfig.mesh_contact` / `footprint_vertices`; docs/rollout.md).
     """
 
     shape: str
@@ -28,6 +30,8 @@ class Geometry:
     convex: bool = True
     unresolved: str | None = None
     color: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
+    contact: str | None = None
+    footprint_vertices: int | None = None
 
 
 @dataclass(frozen=True)

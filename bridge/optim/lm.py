@@ -3,11 +3,17 @@ Jacobian evaluated as one batch (so a process pool runs its columns in parallel)
 
 It works in normalised coordinates (`ParameterSet.to_normal`): one unit is a parameter's typical size and the
 finite-difference step, large enough to see through the small, non-smooth jitter of contact simulation.
+
+With `secant=True` the Jacobian is differenced once, at the start, and then carried along the accepted steps by
+Broyden's rank-one update (the change of the residual along the step replaces the Jacobian's prediction of it):
+an iteration then costs one evaluation instead of 1 + D. The Jacobian at the best point, which the parameters'
+uncertainty is read from, is differenced again at the end.
 `residuals(points) -> vectors` evaluates a batch of points; its squared norm is what is minimised (the
 paper's E^2 for a fit, chi^2 for a diagnosis).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
@@ -26,6 +32,7 @@ class LeastSquares:
     vector: np.ndarray
     jacobian: np.ndarray | None
     stopped: bool = False  # `should_stop` ended the search early (the jacobian may then be None)
+    differenced: bool = True  # the jacobian is a finite difference at x (else a secant estimate, or None)
 
     @property
     def chi2(self) -> float:
@@ -53,49 +60,93 @@ class _Stop(Exception):
     """`should_stop` said so: leave the solver, keep the best point so far."""
 
 
+class _Flat(Exception):
+    """`patience` evaluations in a row lowered the best chi^2 by less than `gain`: the rest would be alike."""
+
+
 def levenberg_marquardt(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray, *,
-                        max_iterations: int = 6, should_stop: Callable[[], bool] | None = None) -> LeastSquares:
+                        max_iterations: int = 6, should_stop: Callable[[], bool] | None = None,
+                        secant: bool = False, patience: int | None = None, gain: float = 1e-3,
+                        final_jacobian: bool = True) -> LeastSquares:
     """Minimise |residuals(x)|^2 from x0 within [lower, upper]; returns the best point evaluated, its residual and
-    the Jacobian there. `should_stop` is asked before every evaluation after the first: when it says so, the
-    search ends with the best point so far (`stopped`; its Jacobian only if it was evaluated)."""
+    the (finite-difference) Jacobian there. `should_stop` is asked before every evaluation after the first: when it
+    says so, the search ends with the best point so far (`stopped`; its Jacobian only if it was evaluated).
+    `secant`: Broyden updates of the Jacobian between the first and the last (see above). `patience`: the search
+    also ends once that many evaluations in a row have lowered the best chi^2 by less than `gain` (relative): the
+    solver then only shrinks its trust region around a point it cannot improve on. `final_jacobian` False: the
+    Jacobian at the best point is not differenced again; the secant estimate there is returned
+    (`differenced` False) for the caller to difference when it needs it."""
     x0 = np.clip(np.asarray(x0, dtype=float), lower, upper)
     seen: dict[bytes, np.ndarray] = {}
     jacobians: dict[bytes, np.ndarray] = {}
+    differenced: set[bytes] = set()  # points whose Jacobian is a finite difference, not a secant update
+    last: list = []  # (x, f, J) where the solver last asked for a Jacobian
 
     def check() -> None:
         if seen and should_stop is not None and should_stop():
             raise _Stop
 
+    flat = [math.inf, 0]  # best chi^2, evaluations in a row without a gain
+
     def fun(x):
         key = np.asarray(x, dtype=float).tobytes()
         if key not in seen:
             check()
+            if patience is not None and flat[1] >= patience:
+                raise _Flat
             seen[key] = residuals([np.asarray(x, dtype=float)])[0]
+            c = float(seen[key] @ seen[key])
+            if c < flat[0] * (1.0 - gain) or not math.isfinite(flat[0]):
+                flat[:] = [min(c, flat[0]), 0]
+            else:
+                flat[0], flat[1] = min(c, flat[0]), flat[1] + 1
         return seen[key]
 
     def jac(x):
-        key = np.asarray(x, dtype=float).tobytes()
+        x = np.asarray(x, dtype=float)
+        key = x.tobytes()
         if key not in jacobians:
             f = fun(x)
-            check()
-            jacobians[key] = jacobian(residuals, np.asarray(x, dtype=float), f, upper)
+            if secant and last and last[1].size == f.size:
+                x_prev, f_prev, J_prev = last
+                s = x - x_prev
+                if float(s @ s) > 0:
+                    jacobians[key] = J_prev + np.outer((f - f_prev) - J_prev @ s, s) / float(s @ s)
+            if key not in jacobians:
+                check()
+                jacobians[key] = jacobian(residuals, x, f, upper)
+                differenced.add(key)
+        last[:] = [x, fun(x), jacobians[key]]
         return jacobians[key]
 
     stopped = False
     try:
         least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0, max_nfev=max_iterations,
                       xtol=1e-3, ftol=1e-4, gtol=1e-6)
-    except (ValueError, np.linalg.LinAlgError):
+    except (ValueError, np.linalg.LinAlgError, _Flat):
         pass  # keep the best point evaluated so far
     except _Stop:
         stopped = True
     best_key = min(seen, key=lambda k: float(seen[k] @ seen[k])) if seen else x0.tobytes()
     x_best = np.frombuffer(best_key, dtype=float).copy() if seen else x0
     f_best = fun(x_best)
-    J = jacobians.get(best_key)
-    if J is None and not stopped:
-        J = jacobian(residuals, x_best, f_best, upper)
+    if best_key in differenced:
+        return LeastSquares(x_best, f_best, jacobians[best_key], stopped)
+    if not final_jacobian:
+        return LeastSquares(x_best, f_best, _secant_at(x_best, f_best, last, jacobians.get(best_key)), stopped, False)
+    J = None if stopped else jacobian(residuals, x_best, f_best, upper)
     return LeastSquares(x_best, f_best, J, stopped)
+
+
+def _secant_at(x: np.ndarray, f: np.ndarray, last: list, J: np.ndarray | None) -> np.ndarray | None:
+    """The secant estimate of the Jacobian at x: the one kept there, else the last one updated to x."""
+    if J is not None or not last or last[1].size != f.size:
+        return J
+    x_prev, f_prev, J_prev = last
+    s = x - x_prev
+    if float(s @ s) == 0:
+        return J_prev
+    return J_prev + np.outer((f - f_prev) - J_prev @ s, s) / float(s @ s)
 
 
 def gauss_newton_step(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray
@@ -112,17 +163,16 @@ def gauss_newton_step(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, u
     if length > TRUST:
         step *= TRUST / length
     best_x, best_c = x0, c0
-    for x in (np.clip(x0 + step, lower, upper), np.clip(x0 + 0.3 * step, lower, upper)):
-        f = residuals([x])[0]
+    tries = [np.clip(x0 + step, lower, upper), np.clip(x0 + 0.3 * step, lower, upper)]
+    for x, f in zip(tries, residuals(tries)):  # one batch: the workers run both
         if float(f @ f) < best_c:
             best_x, best_c = x, float(f @ f)
     if best_c < c0:
         return best_x, best_c
     g = -(J.T @ f0)
     g = g / (np.linalg.norm(g) or 1.0)
-    for size in (1.0, 3.0):
-        x = np.clip(x0 + size * g, lower, upper)
-        f = residuals([x])[0]
+    tries = [np.clip(x0 + size * g, lower, upper) for size in (1.0, 3.0)]
+    for x, f in zip(tries, residuals(tries)):
         if float(f @ f) < best_c:
             best_x, best_c = x, float(f @ f)
     return best_x, best_c

@@ -8,9 +8,9 @@ surfaces.py    which fixture carries which object (for kinds and effects)
 """
 from .files import load_param_file, param_file_text, parse_params, save_param_file
 from .kinds import KINDS, Family, Kind, kind_named, register_kind
-from .model import Model, Setting, apply_model, trial_rollout
+from .model import Model, Setting, apply_model, canonical_model, trial_rollout
 from .parameters import Parameter, ParameterSet, check_targets, check_values, replay_model
 
-__all__ = ["KINDS", "Family", "Kind", "Model", "Parameter", "ParameterSet", "Setting", "apply_model", "check_targets",
+__all__ = ["KINDS", "Family", "Kind", "Model", "Parameter", "ParameterSet", "Setting", "apply_model", "canonical_model", "check_targets",
            "check_values", "kind_named", "load_param_file", "param_file_text", "parse_params", "register_kind",
            "replay_model", "save_param_file", "trial_rollout"]

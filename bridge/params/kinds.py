@@ -66,6 +66,11 @@ class Kind:
     targets: ClassVar[str] = "objects"
     physical: ClassVar[PhysicalRange] = ANY
     family: ClassVar["type[Family] | None"] = None
+    # applied at its null value, the kind reproduces the world model exactly (`model.canonical_model` drops such
+    # settings, so a search's point with an effect at null is the model without it); False where it does not (a
+    # friction coefficient also sets the dynamic one, a post at its null place is still a post)
+    null_is_world: ClassVar[bool] = False
+    inert_without: ClassVar[str | None] = None  # a kind that changes nothing unless this kind is set too
 
     def select(self, target: str, world: WorldState, odb: ObjectDatabase) -> tuple[str, ...]:
         """The names in `world` that `target` selects; () when it names nothing there."""
@@ -190,6 +195,7 @@ class DynamicFriction(Friction):
 
 
 class Dissipation(_ObjectField):
+    null_is_world = True
     name, field_name, unit, targets, physical = "dissipation", "dissipation", "s/m", "contacts", DISSIPATION
     doc = "Hunt-Crossley dissipation of the contact"
 
@@ -206,6 +212,7 @@ class Dissipation(_ObjectField):
 
 
 class HydroelasticModulus(_ObjectField):
+    null_is_world = True
     name, field_name, unit, physical = "hydroelastic_modulus", "hydroelastic_modulus", "Pa", HYDROELASTIC_MODULUS
     doc = "hydroelastic modulus of a compliant object (contact stiffness)"
 
@@ -222,6 +229,7 @@ class HydroelasticModulus(_ObjectField):
 
 # --- scene values: mass --------------------------------------------------------------------------------------
 class Mass(_ObjectField):
+    null_is_world = True
     name, field_name, unit, targets, physical = "mass", "mass", "kg", "free objects", MASS
     doc = "mass of a free object (its rotational inertia follows as mass_spread says: by default scaled with it)"
 
@@ -248,6 +256,7 @@ class Mass(_ObjectField):
 
 
 class MassSpread(_ObjectField):
+    inert_without = "mass"  # the inertia scales by 1 + spread (mass / database mass - 1)
     name, field_name, targets = "mass_spread", "spread", "free objects"
     physical = PhysicalRange(0.0, 3.0, "", "0 puts a changed mass at the centre of mass, 1 spreads it like the "
                              "object's own, 3 at a box's corners")
@@ -266,6 +275,7 @@ class MassSpread(_ObjectField):
 
 class _ComComponent(Kind):
     """One coordinate of the centre of mass in the object's frame; the others stay as they are."""
+    null_is_world = True
 
     axis: ClassVar[int]
     unit, targets = "m", "free objects"
@@ -324,6 +334,7 @@ class ComZ(_ComComponent):
 
 class _ForceComponent(Kind):
     """A constant external force on a free object (world frame, at its centre of mass), one axis."""
+    null_is_world = True
 
     axis: ClassVar[int]
     unit, targets = "N", "free objects"
@@ -373,6 +384,7 @@ class ForceZ(_ForceComponent):
 
 # --- telemetry ----------------------------------------------------------------------------------------------
 class Latency(Kind):
+    null_is_world = True
     name, unit, targets = "latency", "s", "robot"
     doc = "the robot moved this much later than its telemetry says (Telemetry.shifted)"
     physical = PhysicalRange(-2.0, 2.0, "s", "teleoperation latencies are tens to hundreds of milliseconds; "
@@ -403,6 +415,7 @@ class Latency(Kind):
 
 
 class JointOffset(Kind):
+    null_is_world = True
     name, targets = "joint_offset", "joints"
     doc = "a constant offset added to one joint's telemetry (calibration; m or rad)"
     physical = PhysicalRange(-math.pi, math.pi, "", "rad or m: a calibration offset beyond half a turn is another zero")
@@ -495,6 +508,7 @@ class SurfaceTilt(Family):
 
 
 class _Slope(_Member):
+    null_is_world = True
     family, unit = SurfaceTilt, "rad"
     physical = PhysicalRange(-0.5, 0.5, "rad", "in rad: tilted by 0.5 rad, 29 deg, a surface sheds what stands on "
                              "it, a different scene rather than a level one slightly off")
@@ -523,6 +537,7 @@ class SurfaceSlopeY(_Slope):
 
 
 class SurfaceDz(_Member):
+    null_is_world = True
     name, component, family, unit = "surface_dz", "dz", SurfaceTilt, "m"
     doc = "surface tilt: height change of the top above the fixture's centre"
     physical = PhysicalRange(-0.1, 0.1, "m", "in m: a surface 10 cm off its modelled height is another scene")

@@ -58,6 +58,26 @@ def apply_model(model: Sequence[Setting], rollout: Rollout, odb: ObjectDatabase,
     return rollout
 
 
+def canonical_model(model: Sequence[Setting], world, odb: ObjectDatabase) -> Model:
+    """`model` without the settings that reproduce the world model: those of a kind that is `null_is_world` at its
+    null value, and those of a kind `inert_without` another that the model no longer sets on that target. Two
+    models with the same canonical form simulate the same thing (a diagnosis' candidate at its null values is the
+    friction model it extends)."""
+    kept = []
+    for s in model:
+        kind = kind_named(s.kind)
+        if kind.null_is_world:
+            try:
+                null = kind.null(world, odb, s.target)
+            except (ParameterError, KeyError):
+                null = None
+            if null is not None and float(s.value) == float(null):
+                continue
+        kept.append(s)
+    return tuple(s for s in kept if kind_named(s.kind).inert_without is None
+                 or any(o.kind == kind_named(s.kind).inert_without and o.target == s.target for o in kept))
+
+
 def _with_nulls(family: type[Family], values: dict[str, float], world, odb, target) -> dict[str, float]:
     return {component: values[component] if component in values else kind_named(kind).null(world, odb, target)
             for component, kind in family.members.items()}

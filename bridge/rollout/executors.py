@@ -21,7 +21,7 @@ from typing import Any, Callable, Iterator, Sequence
 
 from ..errors import BridgeError
 from ..odb import ObjectDatabase, load_object_database
-from .rollout import Job, Outcome, run_job
+from .rollout import Job, Outcome, RolloutCache, job_key, run_job, served
 
 EXECUTORS = ("process", "dask", "serial")
 
@@ -57,6 +57,14 @@ def run_task(job: Job, ref: OdbRef) -> Outcome:
     return run_job(job, worker_odb(ref))
 
 
+def expected_seconds(job: Job) -> float:
+    """Simulated seconds of a job: what its cost scales with."""
+    if job.options.end is not None:
+        return float(job.options.end)
+    telemetry = job.rollout.telemetry
+    return (float(telemetry.end) if telemetry is not None else 0.0) + job.options.settle
+
+
 class SerialExecutor(FuturesExecutor):
     """Runs each task when it is submitted, in this process (tests, debugging, one core)."""
 
@@ -70,27 +78,61 @@ class SerialExecutor(FuturesExecutor):
 
 
 class Executor:
-    """A `concurrent.futures.Executor` and the object database its tasks use. Use as a context manager."""
+    """A `concurrent.futures.Executor` and the object database its tasks use, with a rollout cache in front
+    (`cache`: a job simulated once is not simulated again while its outcome is held; `cache.counts()` says how
+    many were simulated and how many came from it). Use as a context manager."""
 
     def __init__(self, kind: str, executor: FuturesExecutor, odb: ObjectDatabase, workers: int,
-                 closer: Callable[[], None]):
+                 closer: Callable[[], None], cache: RolloutCache | None = None):
         self.kind, self.executor, self.workers = kind, executor, workers
         self.odb = odb
         self.odb_ref = OdbRef.of(odb)
         self._closer = closer
+        self.cache = cache if cache is not None else RolloutCache()
         _ODBS.setdefault(self.odb_ref, odb)  # serial tasks use the caller's database
 
     def run(self, jobs: Sequence[Job]) -> list[Outcome]:
-        """Simulate every job; outcomes in the order of `jobs`."""
-        futures = [self.executor.submit(run_task, job, self.odb_ref) for job in jobs]
-        return [f.result() for f in futures]
+        """Simulate every job (each distinct job once; a job whose outcome the cache holds not at all); outcomes in
+        the order of `jobs`."""
+        held: dict[str | int, Outcome] = {}  # answered by the cache
+        todo: dict[str | int, Job] = {}  # to simulate now
+        slots: list[str | int] = []
+        for k, job in enumerate(jobs):
+            key = job_key(job)
+            ident: str | int = key if key is not None else k
+            slots.append(ident)
+            if ident in held or ident in todo:
+                continue
+            outcome = self.cache.get(key)
+            if outcome is not None:
+                held[ident] = outcome
+            else:
+                todo[ident] = job
+        # longest first: the workers take jobs in submission order, so a long replay does not start last and keep
+        # one worker busy while the other waits at the end of the batch
+        order = sorted(todo, key=lambda ident: -expected_seconds(todo[ident]))
+        futures = {ident: self.executor.submit(run_task, todo[ident], self.odb_ref) for ident in order}
+        done = {ident: f.result() for ident, f in futures.items()}
+        self.cache.simulated += len(done)
+        for ident, outcome in done.items():
+            if isinstance(ident, str):
+                self.cache.put(ident, outcome)
+        out, first = [], set()
+        for job, ident in zip(jobs, slots):
+            if ident in done and ident not in first:
+                first.add(ident)
+                out.append(done[ident])
+            else:
+                self.cache.cached += 1
+                out.append(served(held.get(ident) or done[ident], job))
+        return out
 
     def iterate(self, jobs: Sequence[Job]) -> Iterator[Outcome]:
         """Each job's outcome in the order of `jobs`, as soon as it (and those before it) is done; no more than a
         few jobs per worker are submitted ahead, so a caller that stops iterating (a time limit) leaves the rest
-        unstarted, and those submitted but not started are cancelled."""
+        unstarted, and those submitted but not started are cancelled. Outcomes the cache holds are not simulated."""
         ahead = 1 if self.kind == "serial" else 2 * self.workers
-        pending: deque[Future] = deque()
+        pending: deque[tuple[Job, str | None, Future | Outcome]] = deque()
         queue = iter(jobs)
         try:
             while True:
@@ -98,13 +140,25 @@ class Executor:
                     job = next(queue, None)
                     if job is None:
                         break
-                    pending.append(self.executor.submit(run_task, job, self.odb_ref))
+                    key = job_key(job)
+                    held = self.cache.get(key)
+                    pending.append((job, key, held if held is not None
+                                    else self.executor.submit(run_task, job, self.odb_ref)))
                 if not pending:
                     return
-                yield pending.popleft().result()
+                job, key, item = pending.popleft()
+                if isinstance(item, Outcome):
+                    self.cache.cached += 1
+                    yield served(item, job)
+                    continue
+                outcome = item.result()
+                self.cache.simulated += 1
+                self.cache.put(key, outcome)
+                yield outcome
         finally:
-            for future in pending:
-                future.cancel()
+            for _, _, item in pending:
+                if isinstance(item, Future):
+                    item.cancel()
 
     def close(self) -> None:
         self._closer()

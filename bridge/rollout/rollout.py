@@ -116,17 +116,97 @@ class Job:
 @dataclass(frozen=True, eq=False)
 class Outcome:
     """A job's result: the replay, or why it failed (a `SimulationFailure`: counted and reported by the caller,
-    never mistaken for a result). Times are those of the process that ran it."""
+    never mistaken for a result). Times are those of the process that ran it; an outcome from the rollout cache
+    (`cached`) cost none."""
 
     name: str
     result: ReplayResult | None
     failure: str | None = None
     wall_time: float = 0.0
     cpu_time: float = 0.0
+    cached: bool = False
 
     @property
     def failed(self) -> bool:
         return self.failure is not None
+
+
+def job_key(job: Job) -> str | None:
+    """A stable key of what a job simulates and records: the SHA-256 of its pickle, the rollout's `name` (a label
+    for messages) left out. Equal keys mean equal jobs (the pickle determines the value), so a cached outcome is
+    the outcome; two equal jobs built differently may get different keys (a dictionary in another order), which
+    only costs a simulation. None when the job cannot be pickled (it could not go to a worker process either)."""
+    import hashlib
+    import pickle
+
+    try:
+        data = pickle.dumps(Job(replace(job.rollout, name=""), job.options), protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # noqa: BLE001 - e.g. a hook holding a lock or a Drake object: not cached, simulated
+        return None
+    return hashlib.sha256(data).hexdigest()
+
+
+def outcome_bytes(outcome: Outcome) -> int:
+    """About how much memory an outcome holds (its arrays and contacts), for the cache's bound."""
+    r = outcome.result
+    if r is None:
+        return 512
+    arrays = [r.times, *r.tracks.values(), r.joint_track, r.robot_force]
+    return 1024 + sum(a.nbytes for a in arrays if a is not None) + 160 * (len(r.contact_log) + len(r.final_contacts))
+
+
+class RolloutCache:
+    """Outcomes of jobs already simulated, by `job_key`: least recently used first out once more than
+    `max_bytes` (approximate, `outcome_bytes`) or `max_entries` are held. Simulations are deterministic, so a
+    repeated job (the nominal model in several stages of a diagnosis, an optimiser evaluating its start again)
+    gets the outcome of the first. Counts what was simulated and what came from here."""
+
+    def __init__(self, max_bytes: int = 256 * 2 ** 20, max_entries: int = 4096):
+        self.max_bytes, self.max_entries = max_bytes, max_entries
+        self._entries: "OrderedDict[str, tuple[Outcome, int]]" = OrderedDict()
+        self.bytes = 0
+        self.simulated = 0  # jobs simulated through the executor that owns this cache
+        self.cached = 0  # jobs answered from here
+
+    def get(self, key: str | None) -> Outcome | None:
+        if key is None or key not in self._entries:
+            return None
+        self._entries.move_to_end(key)
+        return self._entries[key][0]
+
+    def put(self, key: str | None, outcome: Outcome) -> None:
+        if key is None or key in self._entries or self.max_entries <= 0:
+            return
+        size = outcome_bytes(outcome)
+        if size > self.max_bytes:
+            return
+        _freeze(outcome)
+        self._entries[key] = (outcome, size)
+        self.bytes += size
+        while self._entries and (self.bytes > self.max_bytes or len(self._entries) > self.max_entries):
+            _, (_, dropped) = self._entries.popitem(last=False)
+            self.bytes -= dropped
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def counts(self) -> dict[str, int]:
+        return {"simulated": self.simulated, "cached": self.cached}
+
+
+def _freeze(outcome: Outcome) -> None:
+    """A cached outcome is shared by every job that asks for it: its arrays become read-only."""
+    r = outcome.result
+    if r is None:
+        return
+    for a in (r.times, *r.tracks.values(), r.joint_track, r.robot_force):
+        if a is not None:
+            a.setflags(write=False)
+
+
+def served(outcome: Outcome, job: Job) -> Outcome:
+    """A cached outcome as the answer to `job`: its name, no time spent."""
+    return replace(outcome, name=job.rollout.name, wall_time=0.0, cpu_time=0.0, cached=True)
 
 
 def run_job(job: Job, odb: ObjectDatabase) -> Outcome:

@@ -24,7 +24,7 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
-from pydrake.multibody.tree import SpatialInertia, UnitInertia
+from pydrake.multibody.tree import BodyIndex, SpatialInertia, UnitInertia
 from pydrake.systems.framework import DiagramBuilder
 
 from ..errors import SceneError
@@ -55,6 +55,12 @@ class SimConfig:
     discrete_contact_approximation: str = "lagged"
     resolution_hint: float = 0.01  # m, hydroelastic mesh resolution for compliant primitives
     robot_modulus: float = 1.0e7  # Pa, robot links' compliance (fingers need it to grasp)
+    # compliant mesh prisms (an outline extruded along z): "prism" = the exact outline against the robot and other
+    # objects, a footprint of at most `footprint_vertices` vertices fanned from its centre against what carries
+    # them (fixtures, the floor); "drake" = the mesh as Drake takes it (a compliant .obj becomes its convex hull).
+    # A type's `geometry.contact` / `footprint_vertices` override these (docs/rollout.md, sim/prisms.py)
+    mesh_contact: str = "prism"
+    footprint_vertices: int = 16
 
 
 @dataclass(frozen=True)
@@ -144,6 +150,7 @@ class Scene:
     desired_source: "DesiredState | None"
     force_source: "ConstantForces | None"
     body_names: dict[object, str]  # BodyIndex -> 'box' or 'robot/link'
+    footprints: dict[str, tuple] = field(default_factory=dict)  # object -> (outline ids, footprint id): sim/prisms.py
     visualized: bool = False  # a Meshcat visualizer publishes from the diagram
 
     # --- contexts -------------------------------------------------------------------------------
@@ -267,8 +274,11 @@ def _spatial_inertia(odb: ObjectDatabase, type_name: str) -> SpatialInertia:
     return SpatialInertia(mp.mass, np.zeros(3), G).Shift(-np.asarray(mp.com))  # about the body origin
 
 
-def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDatabase, config: SimConfig):
-    """A free body (or anchored geometry for fixtures) with collision and visual geometry."""
+def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDatabase, config: SimConfig,
+               footprints: dict | None = None):
+    """A free body (or anchored geometry for fixtures) with collision and visual geometry. A compliant mesh prism
+    gets its outline and, when it has more vertices than the footprint may, a footprint as a second collision
+    geometry (`contact_shapes`); `footprints[name]` then says which is which, for `filter_footprints`."""
     g = obj_type.geometry
     if g is None:
         raise SceneError(f"object {name!r} of type {obj_type.name!r} has no geometry", source=str(obj_type.source))
@@ -279,9 +289,75 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
         body, X_BG = plant.world_body(), to_drake(pose)
     else:
         body, X_BG = plant.AddRigidBody(name, _spatial_inertia(odb, obj_type.name)), RigidTransform()
-    gid = plant.RegisterCollisionGeometry(body, X_BG, shape, f"{name}/collision", proximity(obj_type, config))
+    props = proximity(obj_type, config)
+    outline, footprint = contact_shapes(obj_type, config) if not obj_type.fixed else (shape, None)
+    gid = plant.RegisterCollisionGeometry(body, X_BG, outline, f"{name}/collision", props)
+    gids = [gid]
+    if footprint is not None:
+        fid = plant.RegisterCollisionGeometry(body, X_BG, footprint, f"{name}/footprint", props)
+        gids.append(fid)
+        if footprints is not None:
+            footprints[name] = ((gid,), fid)
     plant.RegisterVisualGeometry(body, X_BG, shape, f"{name}/visual", np.array(g.color))
-    return (None if obj_type.fixed else body), [gid]
+    return (None if obj_type.fixed else body), gids
+
+
+def contact_mode(obj_type: ObjectType, config: SimConfig) -> tuple[str, int]:
+    """The contact representation of a type's mesh and its footprint's vertex limit: the type's own
+    (`geometry.contact`, `geometry.footprint_vertices`) or the simulator's."""
+    from .prisms import MODES
+
+    g = obj_type.geometry
+    mode = g.contact or config.mesh_contact
+    vertices = g.footprint_vertices or config.footprint_vertices
+    if mode not in MODES:
+        raise SceneError(f"mesh_contact {mode!r} is not one of {', '.join(MODES)}", field="config.mesh_contact")
+    if not isinstance(vertices, int) or vertices < 3:
+        raise SceneError(f"footprint_vertices must be a whole number >= 3, got {vertices!r}",
+                         field="config.footprint_vertices")
+    return mode, vertices
+
+
+def contact_shapes(obj_type: ObjectType, config: SimConfig):
+    """(outline, footprint or None): the collision shapes of a free object. Only compliant mesh prisms differ from
+    `drake_shape` (mode "prism", sim/prisms.py): a convex outline keeps Drake's `Convex` of the file, a non-convex
+    one (`convex: false`) becomes a tetrahedral mesh of its own; a footprint (at most `footprint_vertices`
+    vertices, the outline's area and centroid, fanned from its centre) is added when the outline has more."""
+    from .prisms import contact_outlines, mesh_prism, prism_mesh
+
+    g = obj_type.geometry
+    shape = drake_shape(obj_type)
+    if g.shape != "mesh" or obj_type.physics.hydroelastic_modulus is None:
+        return shape, None
+    mode, vertices = contact_mode(obj_type, config)
+    prism = mesh_prism(g.mesh, g.scale) if mode == "prism" else None
+    if prism is None:
+        return shape, None
+    outline, footprint = contact_outlines(g.mesh, g.scale, g.convex, vertices)
+    exact = shape if outline is None else prism_mesh(outline, prism.z0, prism.z1, f"{obj_type.name}_outline")
+    if footprint is None:
+        return exact, None
+    return exact, prism_mesh(footprint, prism.z0, prism.z1, f"{obj_type.name}_footprint")
+
+
+def filter_footprints(plant, scene_graph, footprints: dict) -> None:
+    """Each object's outline touches only what moves (the robot, other objects), its footprint only what is
+    anchored (fixtures, the floor, geometry welded to the world): one support contact, not two. After Finalize."""
+    from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+
+    if not footprints:
+        return
+    anchored_bodies = {b.index() for b in plant.GetBodiesWeldedTo(plant.world_body())} | {plant.world_body().index()}
+    anchored, moving = [], []
+    for i in range(plant.num_bodies()):
+        body = plant.get_body(BodyIndex(i))
+        (anchored if body.index() in anchored_bodies else moving).extend(plant.GetCollisionGeometriesForBody(body))
+    manager = scene_graph.collision_filter_manager()
+    for outline, footprint in footprints.values():
+        manager.Apply(CollisionFilterDeclaration().ExcludeBetween(GeometrySet(list(outline)), GeometrySet(anchored)))
+        others = [g for g in moving if g != footprint]
+        if others:
+            manager.Apply(CollisionFilterDeclaration().ExcludeBetween(GeometrySet([footprint]), GeometrySet(others)))
 
 
 def floor_height(world: WorldState, odb: ObjectDatabase) -> float:
@@ -341,9 +417,9 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
         time_step=config.time_step, contact_model=config.contact_model,
         discrete_contact_approximation=config.discrete_contact_approximation)
     plant, scene_graph = AddMultibodyPlant(plant_config, builder)
-    bodies, geometries = {}, {}
+    bodies, geometries, footprints = {}, {}, {}
     for name, obj in world.objects.items():
-        body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config)
+        body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config, footprints)
         geometries[name] = gids
         if body is not None:
             bodies[name] = body
@@ -355,6 +431,7 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
     for extra in extras:
         extra.add_to(plant, world, odb, config)
     plant.Finalize()
+    filter_footprints(plant, scene_graph, footprints)
     body_names = {b.index(): n for n, b in bodies.items()}
     if instance is not None:
         for index in plant.GetBodyIndices(instance):
@@ -372,4 +449,4 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 30))
     diagram = builder.Build()
     return Scene(world, odb, config, diagram, plant, scene_graph, bodies, geometries, instance, joints,
-                 desired, forces, body_names, meshcat is not None)
+                 desired, forces, body_names, footprints, meshcat is not None)

@@ -22,6 +22,7 @@ def test_diagnose_writes_a_valid_report(odb, tmp_path, capsys):
     data = json.loads((out / "diagnosis.json").read_text())
     validate(data)
     assert data["verdict"] == "none" and data["recordings"]["held_out"] and "held_out_before" in data["error"]
+    assert data["rollouts"]["simulated"] + data["rollouts"]["cached"] == data["simulations"]
     assert (out / "report.md").read_text().startswith("# Diagnosis")
     assert (out / "paths.png").is_file() and (out / "effects.png").is_file()
     assert not (out / "scene.yaml").exists() and not (out / "residual_old_run_box.png").exists()  # one report

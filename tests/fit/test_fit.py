@@ -36,6 +36,9 @@ def test_recovers_known_parameters_from_a_wrong_start(optimizer, names, trials, 
     found = recovery(dict(result.values))
     assert found.within(TOLERANCE), (found, result.stop_reason)
     assert result.after.e < 0.1 * result.before.e and result.failures == 0
+    assert sum(result.rollouts.values()) == result.simulations  # every replay asked for: run, or from the cache
+    if optimizer == "lm":  # it evaluates the start again, which the fit scored first: not simulated twice
+        assert result.rollouts["cached"] >= len(trials)
 
 
 def test_hold_out_split_is_seeded_and_keeps_order():

@@ -106,3 +106,40 @@ def test_a_tilted_surface_in_a_parameter_file_tilts_the_replay(world, odb):
     assert final.rotation_to(world.objects["small_box"].pose) == pytest.approx(0.05, abs=0.005)
     level = run_rollout(still, odb, SimOptions(end=0.5)).final_poses["small_box"]
     assert level.rotation_to(world.objects["small_box"].pose) < 0.005
+
+
+def test_settings_that_reproduce_the_world_model_leave_the_canonical_model(world, odb):
+    """A candidate at its null values is the model without it (a diagnosis evaluates it once); settings whose null
+    does not reproduce the world model (a friction coefficient also sets the dynamic one, a post at its null place
+    is still a post) stay."""
+    from bridge.params import canonical_model
+    from bridge.sim.shapes import mass_properties
+
+    m0 = float(mass_properties(odb, "small_box").mass)
+    com0 = [float(c) for c in mass_properties(odb, "small_box").com]
+    friction = Setting("friction", "big_box", 0.4)
+    nulls = (Setting("com_x", "small_box", com0[0]), Setting("mass", "small_box", m0),
+             Setting("mass_spread", "small_box", 0.0), Setting("latency", "pusher", 0.0),
+             Setting("surface_slope_x", "table", 0.0), Setting("force_z", "small_box", 0.0))
+    assert canonical_model((friction, *nulls), world, odb) == (friction,)
+    moved = Setting("mass", "small_box", 2 * m0)
+    assert canonical_model((friction, moved, Setting("mass_spread", "small_box", 0.0)), world, odb) == (
+        friction, moved, Setting("mass_spread", "small_box", 0.0))  # the spread matters beside a changed mass
+    kept = (Setting("friction", "table", kind_named("friction").null(world, odb, "table")),
+            Setting("obstacle_x", "table", kind_named("obstacle_x").null(world, odb, "table")))
+    assert canonical_model(kept, world, odb) == kept
+
+
+def test_a_null_setting_replays_as_the_world_model(rollout, world, odb):
+    """What `null_is_world` promises, in Drake: the same tracks with and without the settings it drops."""
+    from bridge.params import canonical_model
+    from bridge.sim.shapes import mass_properties
+
+    mp = mass_properties(odb, "small_box")
+    model = (Setting("mass", "small_box", float(mp.mass)), Setting("com_y", "small_box", float(mp.com[1])),
+             Setting("latency", "pusher", 0.0), Setting("mass_spread", "small_box", 0.0))
+    assert canonical_model(model, world, odb) == ()
+    options = SimOptions(settle=0.2)
+    a, b = run_rollout(apply_model(model, rollout, odb), odb, options), run_rollout(rollout, odb, options)
+    for name, track in b.tracks.items():
+        assert np.array_equal(a.tracks[name], track)
