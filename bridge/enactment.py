@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -30,6 +30,11 @@ from .world import WorldState, load_world_state
 
 STEP_PAUSE = 0.2  # s between two actions' telemetry
 REPLAY = SimOptions(contacts=True, final_contacts=True, joint_track=True)  # what inference and the next body read
+
+FreeMotion = Callable[[WorldState, int, float], "Telemetry | None"]
+"""Operator free motion between actions: called with the world (its robot where the telemetry so far ends), the
+number of steps done (0: before the first) and the seconds of telemetry so far; returns telemetry to insert
+there (starting at the robot's joints), or None. Free motion changes no object, so nothing is replayed for it."""
 
 
 @dataclass(frozen=True)
@@ -63,10 +68,11 @@ def body_for(templates: Mapping[str, ActionTemplate], action: str):
 
 
 def enact(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate],
-          steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None) -> Enactment:
+          steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None,
+          free_motion: FreeMotion | None = None) -> Enactment:
     """`plan_telemetry`, then replay all of it from `world` and infer the world after."""
     steps = _steps(steps)
-    telemetry, expected = plan_telemetry(world, odb, templates, steps, rng=rng)
+    telemetry, expected = plan_telemetry(world, odb, templates, steps, rng=rng, free_motion=free_motion)
     result, after = _replay(world, telemetry, odb)
     return Enactment(telemetry, result, world, after, expected, steps)
 
@@ -81,29 +87,46 @@ def _replay(world: WorldState, telemetry: Telemetry, odb: ObjectDatabase) -> tup
 
 
 def plan_telemetry(world: WorldState, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate],
-                   steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None) -> tuple[Telemetry, WorldState]:
+                   steps: Sequence[PlanStep | tuple[str, Sequence[str]]], *, rng=None,
+                   free_motion: FreeMotion | None = None) -> tuple[Telemetry, WorldState]:
     """The joined telemetry of the steps' bodies and the world the templates' effects lead to. Each body after the
     first is planned from the world the simulation reached after the one before (simulated poses, inferred facts,
-    the robot's joints where the last telemetry ended). Preconditions are checked on the expected states."""
+    the robot's joints where the last telemetry ended). Preconditions are checked on the expected states.
+    `free_motion` may insert operator free motion before the first step and after each (see `FreeMotion`)."""
     steps = _steps(steps)
     if not steps:
         raise ActionError("nothing to enact: the plan has no steps")
     expected = world
     current = world
     pieces: list[Telemetry] = []
+
+    def add_free_motion(done: int) -> None:
+        if free_motion is not None:
+            piece = free_motion(_with_joints(current, pieces[-1]) if pieces else current, done, _joined_end(pieces))
+            if piece is not None:
+                pieces.append(piece)
+
+    add_free_motion(0)
     for number, step in enumerate(steps, start=1):
         _, body = body_for(templates, step.action)
         expected = apply_action(expected, odb, templates, step.action, step.args)  # checks the precondition
         if pieces:
             current = _with_joints(current, pieces[-1])  # start where the last telemetry ended
         pieces.append(body(current, odb, list(step.args), rng=rng))
-        if number < len(steps):
+        if number < len(steps) or free_motion is not None:  # free motion keeps clear of where objects went
             current = _replay(current, pieces[-1], odb)[1]
-    return join_telemetry(pieces, source=" then ".join(map(str, steps))), expected
+        add_free_motion(number)
+    source = " then ".join(map(str, steps)) + (" with free motion" if free_motion is not None else "")
+    return join_telemetry(pieces, source=source), expected
 
 
 def _steps(steps) -> tuple[PlanStep, ...]:
     return tuple(s if isinstance(s, PlanStep) else PlanStep(s[0], tuple(s[1])) for s in steps)
+
+
+def _joined_end(pieces: Sequence[Telemetry]) -> float:
+    """Where `join_telemetry(pieces)` would end (0 for none)."""
+    return sum(p.times[-1] - p.times[0] for p in pieces) + STEP_PAUSE * max(0, len(pieces) - 1)
 
 
 def join_telemetry(pieces: Sequence[Telemetry], source: str = "<joined>") -> Telemetry:
@@ -146,20 +169,31 @@ def make_recording(world_path: str | Path, action: str, args: Sequence[str], out
 
 def make_plan_recording(world_path: str | Path, steps: Sequence[PlanStep | tuple[str, Sequence[str]]],
                         out_folder: str | Path, odb: ObjectDatabase, templates: Mapping[str, ActionTemplate], *,
-                        name: str | None = None, overwrite: bool = False, rng=None) -> Recording:
+                        name: str | None = None, overwrite: bool = False, rng=None,
+                        free_motion: FreeMotion | None = None) -> Recording:
     """Several actions in one telemetry, written as a recording folder (see `make_recording`)."""
     check_recording_folder(out_folder, overwrite)  # before the simulation, not after it
     world_path = Path(world_path)
     world = load_world_state(world_path, odb)
-    done = enact(world, odb, templates, steps, rng=rng)
+    done = enact(world, odb, templates, steps, rng=rng, free_motion=free_motion)
+    return save_enactment(done, world_path, out_folder, odb, name=name, overwrite=overwrite)
+
+
+def save_enactment(done: Enactment, world_path: str | Path, out_folder: str | Path, odb: ObjectDatabase, *,
+                   name: str | None = None, overwrite: bool = False, note: str = "") -> Recording:
+    """An enactment as a recording folder: `world_path` (the world it started from) copied, its telemetry, the
+    simulated poses before and after as observations, the actions and whether the facts came out as the templates
+    say in the notes (with `note` after them)."""
     plan = " ".join(map(str, done.steps))
     verdict = ("the inferred facts equal the templates' effects" if done.matches else
                f"WARNING: the inferred facts differ from the templates' effects (missing "
                f"{' '.join(map(str, sorted(done.expected.facts - done.after.facts))) or 'none'}, extra "
                f"{' '.join(map(str, sorted(done.after.facts - done.expected.facts))) or 'none'})")
     notes = (f"actions: {plan}. Generated by bridge act from the action templates' bodies; observed.csv holds the "
-             f"simulated poses before and after (not a real observation). In simulation {verdict}.")
+             f"simulated poses before and after (not a real observation). In simulation {verdict}."
+             + (f" {note}" if note else ""))
+    world = done.before
     metadata = {"name": name or Path(out_folder).name, "robot": world.robot.type if world.robot else None,
                 "notes": notes}
-    return save_recording(out_folder, world_path, done.telemetry, observed_poses(world, done.replay, odb),
+    return save_recording(out_folder, Path(world_path), done.telemetry, observed_poses(world, done.replay, odb),
                           {k: v for k, v in metadata.items() if v is not None}, overwrite=overwrite)

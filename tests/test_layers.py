@@ -24,7 +24,7 @@ LAYERS = {
     "params": 9,
     "fit": 10, "diagnosis": 10,
     "prove": 11,
-    "teleop": 12, "enactment": 12, "uncertainty": 12, "check": 12,
+    "teleop": 12, "enactment": 12, "session": 12, "uncertainty": 12, "check": 12,
     "commands": 13, "progress": 13,  # progress: the commands' bars and lines (tqdm); the library takes callbacks
     "cli": 14,
     "__init__": 14,  # the package's re-exports

@@ -16,7 +16,8 @@ the templates' effects say (see pddl/templates/*.yaml and the SIEs in odb/sies/)
 - stand_up(r, o, s): o lies on s; grasp it near the end that must go up, lift, turn it upright about the grasp
   axis, set it down, release, retreat. (The gripper opens 8 cm: a box wider than 6 cm across cannot be stood up.)
 
-Bodies live in pushing.py and grasping.py; jobs.py holds what they share, motion.py the trajectories (the IK
+Bodies live in pushing.py and grasping.py; wander.py makes the operator's free motion between actions (not an
+action: no template names it); jobs.py holds what they share, motion.py the trajectories (the IK
 plant and the clearance check are Drake: bridge.sim.kinematics),
 layout.py the geometry of free space. Failures (unknown object, nothing reachable, no free spot, IK failure) raise `ActionError` naming the action,
 the object and the target point. Motions are checked against the world's objects (`Clearance`) before they are
@@ -31,8 +32,9 @@ from ..world import WorldState
 from .grasping import pick, place, stand_up
 from .jobs import Body, Job, start_job
 from .pushing import push, push_against, push_at, push_over
+from .wander import wander
 
-__all__ = ["BODIES", "Body", "Job", "push_at", "start_job", "world_after_replay"]
+__all__ = ["BODIES", "Body", "Job", "push_at", "start_job", "wander", "world_after_replay"]
 
 
 def world_after_replay(before: WorldState, result, facts) -> WorldState:
