@@ -14,6 +14,7 @@
 
     python benchmarks/fit_benchmark.py            # the full run, < 20 minutes on 2 cores
     python benchmarks/fit_benchmark.py --quick    # < 3 minutes
+    python benchmarks/fit_benchmark.py --only workers   # one part; the stored figures of the others are kept
 
 Prints a table and writes benchmarks/results/fit.json (fit_quick.json with --quick; or --json PATH) so two
 revisions can be compared.
@@ -43,6 +44,7 @@ from bridge.errors import BridgeError  # noqa: E402
 from bridge.rollout import make_executor  # noqa: E402
 
 SPEEDUP_TARGET = 1.8
+PARTS = ("optimizers", "workers", "mit")
 ROD_FRICTION, BLOCK_FRICTION = 0.25, 0.25  # models/pusher2d/pusher2d.sdf and odb/types/mit_push.yaml
 
 FULL = dict(es_generations=30, es_lam=40,  # mu = lam / 4 = 10, as in the paper
@@ -247,26 +249,39 @@ def main(argv=None) -> None:
     parser.add_argument("--quick", action="store_true", help="smaller budgets, < 3 minutes")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--workers", type=int, default=2, help="workers for parts 1 and 3 (default %(default)s)")
+    parser.add_argument("--only", default=None, help=f"comma-separated parts to run ({', '.join(PARTS)}; default all); "
+                        "the other parts' stored figures are kept")
     parser.add_argument("--json", default=None, help="default: benchmarks/results/fit.json (fit_quick.json with --quick)")
     args = parser.parse_args(argv)
     cfg = QUICK if args.quick else FULL
     args.json = args.json or str(REPO / "benchmarks" / "results" / ("fit_quick.json" if args.quick else "fit.json"))
     odb = load_object_database()
+    parts = args.only.split(",") if args.only else list(PARTS)
+    unknown = sorted(set(parts) - set(PARTS))
+    if unknown:
+        parser.error(f"--only: unknown part(s) {', '.join(unknown)}; choose from {', '.join(PARTS)}")
+    out = Path(args.json)
+    # a partial run updates its parts of the stored figures and keeps the others
+    report = json.loads(out.read_text()) if args.only and out.is_file() else {}
     started = time.perf_counter()
-    with make_executor("process", odb, workers=args.workers) as executor:
-        optimizers = part_optimizers(odb, executor, cfg, args.seed)
-        print_optimizers(optimizers)
-        mit = part_mit(odb, executor, cfg, args.seed)
-    workers = part_workers(odb, cfg, args.seed)
-    print_workers(workers)
-    print_mit(mit)
+    if "optimizers" in parts or "mit" in parts:
+        with make_executor("process", odb, workers=args.workers) as executor:
+            if "optimizers" in parts:
+                report["optimizers"] = part_optimizers(odb, executor, cfg, args.seed)
+                print_optimizers(report["optimizers"])
+            if "mit" in parts:
+                report["mit"] = part_mit(odb, executor, cfg, args.seed)
+    if "workers" in parts:
+        report["workers"] = part_workers(odb, cfg, args.seed)
+        print_workers(report["workers"])
+    if "mit" in parts:
+        print_mit(report["mit"])
     total = time.perf_counter() - started
     print(f"\ntotal {total:.0f} s ({'quick' if args.quick else 'full'} run)")
-    out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"mode": "quick" if args.quick else "full", "seed": args.seed, "config": cfg,
-                               "machine": platform.platform(), "total_s": round(total, 1),
-                               "optimizers": optimizers, "workers": workers, "mit": mit}, indent=1) + "\n")
+    report.update({"mode": "quick" if args.quick else "full", "seed": args.seed, "config": cfg,
+                   "machine": platform.platform(), "total_s": round(total, 1)})
+    out.write_text(json.dumps(report, indent=1) + "\n")
     print(f"wrote {out}")
 
 

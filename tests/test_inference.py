@@ -13,11 +13,6 @@ DEMO = REPO / "demo" / "worlds" / "tabletop.yaml"
 
 
 @pytest.fixture(scope="module")
-def odb():
-    return load_object_database()
-
-
-@pytest.fixture(scope="module")
 def world(odb):
     return load_world_state(DEMO, odb)
 

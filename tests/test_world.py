@@ -6,17 +6,11 @@ from pathlib import Path
 import pytest
 
 from bridge.errors import WorldStateError
-from bridge.odb import load_object_database
 from bridge.values import Fact, Pose
 from bridge.world import load_world_state, save_world_state
 
 REPO = Path(__file__).resolve().parents[1]
 DEMO = REPO / "demo" / "worlds" / "tabletop.yaml"
-
-
-@pytest.fixture(scope="module")
-def odb():
-    return load_object_database()
 
 
 def test_demo_world_round_trip(odb, tmp_path):

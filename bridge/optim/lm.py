@@ -107,11 +107,8 @@ def levenberg_marquardt(residuals: Residuals, x0: np.ndarray, lower: np.ndarray,
         key = x.tobytes()
         if key not in jacobians:
             f = fun(x)
-            if secant and last and last[1].size == f.size:
-                x_prev, f_prev, J_prev = last
-                s = x - x_prev
-                if float(s @ s) > 0:
-                    jacobians[key] = J_prev + np.outer((f - f_prev) - J_prev @ s, s) / float(s @ s)
+            if secant and last and last[1].size == f.size and np.any(x != last[0]):
+                jacobians[key] = _broyden(x, f, last)
             if key not in jacobians:
                 check()
                 jacobians[key] = jacobian(residuals, x, f, upper)
@@ -142,10 +139,14 @@ def _secant_at(x: np.ndarray, f: np.ndarray, last: list, J: np.ndarray | None) -
     """The secant estimate of the Jacobian at x: the one kept there, else the last one updated to x."""
     if J is not None or not last or last[1].size != f.size:
         return J
+    return _broyden(x, f, last) if np.any(x != last[0]) else last[2]
+
+
+def _broyden(x: np.ndarray, f: np.ndarray, last: list) -> np.ndarray:
+    """Broyden's rank-one update of the Jacobian `last` = (x', f', J') to x: J' corrected along the step s = x - x'
+    so that it predicts the change of the residual f - f' there exactly."""
     x_prev, f_prev, J_prev = last
     s = x - x_prev
-    if float(s @ s) == 0:
-        return J_prev
     return J_prev + np.outer((f - f_prev) - J_prev @ s, s) / float(s @ s)
 
 

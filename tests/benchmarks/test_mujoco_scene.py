@@ -16,15 +16,9 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 from mujoco_replay import replay  # noqa: E402
 from mujoco_scene import read_sdf, scene_xml  # noqa: E402
 
-from bridge.odb import load_object_database  # noqa: E402
 from bridge.recording.telemetry import Telemetry  # noqa: E402
 from bridge.sim.scene import build_scene  # noqa: E402
 from bridge.world import load_world_state  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def odb():
-    return load_object_database()
 
 
 @pytest.fixture(scope="module")

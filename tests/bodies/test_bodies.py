@@ -10,7 +10,6 @@ pytest.importorskip("pydrake")
 from bridge.enactment import enact, make_recording  # noqa: E402
 from bridge.errors import ActionError  # noqa: E402
 from bridge.inference import infer_state  # noqa: E402
-from bridge.odb import load_object_database  # noqa: E402
 from bridge.odb.geometry import support  # noqa: E402
 from bridge.planning import apply_action, load_action_templates  # noqa: E402
 from bridge.recording.recording import load_recording  # noqa: E402
@@ -34,11 +33,6 @@ CASES = {
     "pick": (TABLETOP, ("arm", "small_box", "table")),
     "stand_up": (TOPPLED, ("arm", "small_box", "work_table")),
 }
-
-
-@pytest.fixture(scope="module")
-def odb():
-    return load_object_database()
 
 
 @pytest.fixture(scope="module")

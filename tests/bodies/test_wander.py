@@ -10,16 +10,10 @@ pytest.importorskip("pydrake")
 from bridge.bodies import wander  # noqa: E402
 from bridge.bodies.motion import RATE  # noqa: E402
 from bridge.bodies.wander import FIXTURE_CLEARANCE, MOVABLE_CLEARANCE  # noqa: E402
-from bridge.odb import load_object_database  # noqa: E402
 from bridge.sim.kinematics import arm_for, clearance_for  # noqa: E402
 from bridge.world import load_world_state  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
-
-
-@pytest.fixture(scope="module")
-def odb():
-    return load_object_database()
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,6 @@ from pathlib import Path
 
 import pytest
 
-from bridge.odb import load_object_database
 from bridge.planning import load_action_templates, load_domain_settings
 from bridge.world import load_world_state, world_from_dict
 
@@ -12,11 +11,6 @@ REPO = Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "tests" / "fixtures"
 TOPPLED = FIXTURES / "worlds" / "toppled.yaml"
 DEMO = REPO / "demo" / "worlds" / "tabletop.yaml"
-
-
-@pytest.fixture(scope="session")
-def odb():
-    return load_object_database()
 
 
 @pytest.fixture(scope="session")
