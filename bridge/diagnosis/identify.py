@@ -95,6 +95,7 @@ class Scored:
     derived: dict[str, float] = field(default_factory=dict)
     evaluations: int = 0
     model_std: dict[str, float] = field(default_factory=dict)  # 1 sigma of every fitted parameter of the model
+    at_bound: dict[str, float] = field(default_factory=dict)  # fitted parameters a bound stopped: the bound
 
     @property
     def rms(self) -> float:
@@ -116,6 +117,8 @@ class Scored:
             out["held_out_rms_sigma"] = round(math.sqrt(self.held_out_chi2 / self.held_out_n), 3)
         if self.derived:
             out["derived"] = {k: float(f"{v:.4g}") for k, v in self.derived.items()}
+        if self.at_bound:
+            out["at_bound"] = {k: float(f"{v:.6g}") for k, v in self.at_bound.items()}
         return out
 
 
@@ -410,7 +413,7 @@ def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) ->
     derived = get_effect(effect).describe(world, odb, target, params)
     return Scored(effect, target, params, {p.name: std[p.name] for p in own}, result.model(), result.space.dim,
                   result.chi2, result.n, error=pose_error_of(result.runs), derived=derived,
-                  evaluations=result.evaluations, model_std=std)
+                  evaluations=result.evaluations, model_std=std, at_bound=result.at_bound())
 
 
 def _with_raw_offset(s: Scored, shift: dict[str, float]) -> Scored:
@@ -487,6 +490,9 @@ def _typical_ratio(model: Sequence[tuple[float, int]], simpler: Sequence[tuple[f
 
 def _acceptable(s: Scored, none: Scored, friction: Scored | None, checked: bool, world, odb) -> str | None:
     """Why `s` is not accepted over the simpler model it extends, or None when it is (see `_verdict`)."""
+    if s.at_bound:
+        return (f"{s.effect}'s fit ended on the bound of {_fmt(s.at_bound)} and asks for more: the recordings want "
+                f"values outside the physical range, so this model does not describe them (not a finding)")
     if s.effect not in ("none", "friction") and get_effect(s.effect).negligible(world, odb, s.target, s.params):
         return f"{s.effect}'s parameters ({_fmt(s.params)}) are too small to matter physically"
     simpler = [none] if s.effect == "friction" or friction is None else [none, friction]

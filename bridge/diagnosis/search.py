@@ -21,6 +21,7 @@ from .runs import Run, Runner, vector_of
 
 PATIENCE = 3  # Levenberg-Marquardt evaluations in a row that gain less than GAIN end a fit
 GAIN = 1e-3  # relative chi^2: a gain below this changes no comparison the diagnosis makes (MIN_GAIN is 20 %)
+AT_BOUND = 0.25  # a fitted value this close to a bound (in units of the parameter's step, its typical size) is on it
 
 
 class Evaluator:
@@ -85,6 +86,25 @@ class FitResult:
 
     def model(self) -> Model:
         return self.space.model(self.space.from_normal(self.x))
+
+    def at_bound(self) -> dict[str, float]:
+        """The parameters a bound stopped: within AT_BOUND of it, and the Gauss-Newton step from the optimum (the
+        minimum of chi^2's local quadratic model, all parameters together) lies beyond it. The data then ask for a
+        value the parameter's physical range excludes: the model family, not the value, is what is wrong.
+        By name, the bound reached."""
+        if self.jacobian is None or self.space.dim == 0:
+            return {}
+        lower, upper = self.space.normal_bounds()
+        J = self.jacobian
+        step = -np.linalg.pinv(J.T @ J) @ (J.T @ self.vector)
+        beyond = self.x + step
+        out = {}
+        for i, p in enumerate(self.space.free):
+            if self.x[i] >= upper[i] - AT_BOUND and beyond[i] > upper[i]:
+                out[p.name] = float(p.bounds[1])
+            elif self.x[i] <= lower[i] + AT_BOUND and beyond[i] < lower[i]:
+                out[p.name] = float(p.bounds[0])
+        return out
 
     def std(self, inflate: float = 1.0) -> dict[str, float]:
         """1-sigma parameter uncertainty from the curvature: cov = (J^T J)^-1 * max(1, reduced chi^2) * inflate."""

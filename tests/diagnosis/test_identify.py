@@ -1,7 +1,7 @@
 """The held-out rule of the verdict, on chi^2 figures (the fits themselves are proven in test_prove)."""
 import math
 
-from bridge.diagnosis.identify import Scored, _held_out_ok
+from bridge.diagnosis.identify import Scored, _acceptable, _held_out_ok
 
 
 def _scored(effect: str, each: list[tuple[float, int]]) -> Scored:
@@ -39,3 +39,15 @@ def test_a_model_that_explains_most_of_the_held_out_excess_passes_though_one_qui
     simpler = _scored("none", [(162.0, 240), (124725.0, 238)])
     assert _held_out_ok(_scored("hidden_obstacle", [(2503.0, 240), (13418.0, 238)]), [simpler])
     assert not _held_out_ok(_scored("hidden_obstacle", [(2503.0, 240), (90000.0, 238)]), [simpler])
+
+
+def test_a_model_stopped_by_a_bound_is_never_the_finding():
+    """However much it explains: the recordings asked for a value outside the physical range."""
+    n = 1000
+    none = Scored("none", "", {}, {}, (), 0, 40.0 * n, n)
+    friction = Scored("friction", "surface", {"friction[surface]": 1.5}, {}, (), 1, 2.0 * n, n,
+                      at_bound={"friction[surface]": 1.5})
+    why = _acceptable(friction, none, None, False, None, None)
+    assert why is not None and "bound of friction[surface] = 1.5" in why
+    assert _acceptable(Scored("friction", "surface", {"friction[surface]": 0.9}, {}, (), 1, 2.0 * n, n),
+                       none, None, False, None, None) is None

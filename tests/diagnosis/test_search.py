@@ -46,6 +46,24 @@ def test_uncertainty_from_the_curvature_of_a_linear_model():
     assert list(result.std().values()) == pytest.approx(expected)
 
 
+def test_a_bound_that_stops_the_fit_is_named_and_one_that_does_not_is_not():
+    """r = x - target (one unit of noise per sample): the optimum sits at the target, or on the bound nearest it
+    when the target is outside; only then does the Gauss-Newton step point beyond the bound."""
+    space = ParameterSet((Parameter(KINDS["force_x"], "a", bounds=(-1, 1), start=0.0, step=0.5),
+                          Parameter(KINDS["force_y"], "b", bounds=(-1, 1), start=0.0, step=0.5)))
+    J = np.tile(np.eye(2), (10, 1))
+    lower, upper = space.normal_bounds()
+
+    def at(x, target):
+        return FitResult(space, np.asarray(x, float), J @ (np.asarray(x, float) - target), J, (), 0).at_bound()
+
+    assert at([upper[0], 0.3], np.array([5.0, 0.3])) == {"force_x[a]": 1.0}  # wants 2.5: stopped at 1
+    assert at([0.1, lower[1]], np.array([0.1, -9.0])) == {"force_y[b]": -1.0}
+    assert at([upper[0], 0.0], np.array([upper[0], 0.0])) == {}  # the optimum is on the bound, not beyond it
+    assert at([0.0, 0.0], np.array([5.0, 0.0])) == {}  # far from the bound: not converged, not stopped
+    assert FitResult(space, np.zeros(2), np.zeros(20), None, (), 0).at_bound() == {}
+
+
 @pytest.fixture(scope="module")
 def friction_case(odb, tmp_path_factory):
     """Two generated pushes on a surface with twice the database's friction (real Drake), prepared."""
@@ -104,3 +122,22 @@ def test_a_model_naming_no_object_is_an_error_not_a_score(friction_case):
     (crushed,) = runner.run((Setting("force_z", "block", -1e5),), [0])
     assert crushed.failed and "diverged" in crushed.failed
     assert runner.failures == [(crushed.trial, crushed.failed)] and np.all(np.isfinite(crushed.normalised))
+
+
+@pytest.mark.slow
+def test_a_friction_range_that_excludes_the_truth_shows_as_a_fit_stopped_at_its_bound(friction_case, odb):
+    """The surface is twice as rough as the database says; a range capped below the truth leaves the fit on the cap,
+    and says so; the full range does not."""
+    from dataclasses import replace
+
+    runner, truth = friction_case
+    world = runner.prepared[0].world
+    full = Parameter.of("friction", "surface", world, odb)
+    true = truth.params[pname("friction", "surface")]
+    cap = full.start_value + 0.3 * (true - full.start_value)
+    capped = ParameterSet((replace(full, bounds=(full.bounds[0], cap)),))
+    ev = Evaluator(runner, [0, 1])
+    stopped = fit(ev, capped, np.zeros(1), max_iterations=6)
+    assert stopped.at_bound() == {"friction[surface]": pytest.approx(cap)}
+    free = fit(ev, ParameterSet((full,)), np.zeros(1), max_iterations=8)
+    assert free.at_bound() == {}
