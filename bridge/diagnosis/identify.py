@@ -511,6 +511,8 @@ def _verdict(scored: list[Scored], checked: bool, world, odb) -> tuple[str, str 
 
     Models are nested: `friction` adds the friction coefficients to `none`, every effect adds its own parameters
     to `friction`. A model is accepted over the simpler one it extends when
+    - no parameter of its fit was stopped by a bound (`FitResult.at_bound`: the data ask for a value outside the
+      physical range, so the model family is wrong and the value on the bound is no finding);
     - its own parameters are not all negligible (`Effect.negligible`: e.g. a centre of mass moved by less than
       a millimetre only soaks up the error of the start poses);
     - its extra parameters remove at least MIN_GAIN of the simpler model's excess chi^2 (chi^2 - n: the part
