@@ -74,3 +74,22 @@ def test_the_replayed_facts_are_the_plans_effects(short):
     observed = {track.object: track.poses[-1] for track in short.recording.observations.tracks}
     for name, pose in done.replay.final_poses.items():
         assert observed[name].translation_to(pose) < 1e-5
+
+
+@pytest.mark.slow
+def test_sleeping_objects_replay_the_session_as_the_full_simulation_does(short):
+    """`bridge infer`'s default replay (sleeping objects) against every object stepped: the same facts, final
+    poses within 1 mm / 1 deg, and most of the session not stepped at all."""
+    from bridge.odb import load_object_database
+    from bridge.sim.simulate import SimOptions
+    from bridge.teleop import infer_recording
+
+    odb = load_object_database()
+    asleep = infer_recording(short.recording, odb)
+    full = infer_recording(short.recording, odb, options=SimOptions(sleep=False))
+    assert asleep.inference.world.facts == full.inference.world.facts
+    for name, pose in full.replay.final_poses.items():
+        other = asleep.replay.final_poses[name]
+        assert pose.translation_to(other) < 1e-3 and pose.rotation_to(other) < np.radians(1.0), name
+    stepped = sum(b - a for a, b in asleep.replay.awake)
+    assert stepped < 0.6 * asleep.replay.sim_time  # the free motion (60 % of the session) is not stepped
