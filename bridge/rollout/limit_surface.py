@@ -26,7 +26,7 @@ surface that is not an ellipsoid, and the rod's own compliance.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -42,6 +42,7 @@ from .trials import Trial
 
 GRAVITY = 9.81  # m/s^2
 MU_P_BOUNDS = (0.01, 1.5)  # pusher-object friction a fit may choose
+C_SCALE_BOUNDS = (0.3, 1.5)  # factor on the uniform pressure's c a fit may choose (0: all at the centre)
 _EPS = 1e-12
 
 
@@ -326,33 +327,44 @@ def surface_friction_from_force(trial: Trial, pushed: PushedObject, push: QuasiS
 
 @dataclass(frozen=True)
 class FrictionFit:
-    """The pusher friction that minimises the paper's error E over some trials, its error before and after."""
+    """What minimises the paper's error E over some trials: the pusher friction and, when fitted, the factor on
+    the uniform pressure's c (`c_scale` < 1: pressure nearer the centre); E before (at the start) and after."""
 
     mu_p: float
+    c_scale: float
     before: PoseError
     after: PoseError
     evaluations: int
 
 
 def fit_pusher_friction(trials: Sequence[Trial], pushed: Sequence[PushedObject], mu_p0: float, *,
-                        c: float = DEFAULT_C, bounds: tuple[float, float] = MU_P_BOUNDS,
+                        fit_pressure: bool = False, c: float = DEFAULT_C, bounds: tuple[float, float] = MU_P_BOUNDS,
                         max_evaluations: int = 30) -> FrictionFit:
-    """mu_p by scipy's bounded least squares on the paper's error (eq. 1-4, `compare.least_squares_vector`) over
-    `trials`. mu_s is not fitted here: quasi-static poses do not depend on it (`surface_friction_from_force`).
-    `max_evaluations` is scipy's `max_nfev` (the finite-difference Jacobian's evaluations come on top)."""
+    """mu_p (and with `fit_pressure` a factor on c) by scipy's bounded least squares on the paper's error
+    (eq. 1-4, `compare.least_squares_vector`) over `trials`. mu_s is not fitted here: quasi-static poses do not
+    depend on it (`surface_friction_from_force`). `max_evaluations` is scipy's `max_nfev` (the
+    finite-difference Jacobian's evaluations come on top)."""
     if not trials or len(trials) != len(pushed):
         raise LimitSurfaceError(f"fit_pusher_friction needs trials and their pushed objects, one each; got "
                                 f"{len(trials)} and {len(pushed)}")
     lo, hi = bounds
     evaluations = 0
 
-    def rows(mu: float) -> list[np.ndarray]:
+    def rows(x: Sequence[float]) -> list[np.ndarray]:
         nonlocal evaluations
         evaluations += 1
-        return [r for t, p in zip(trials, pushed) for r in push_residuals(t, p, push_trial(t, p, mu))[0]]
+        scale = float(x[1]) if len(x) > 1 else 1.0
+        out = []
+        for trial, p in zip(trials, pushed):
+            if scale != 1.0:
+                p = replace(p, surface=replace(p.surface, c=p.surface.c * scale))
+            out.extend(push_residuals(trial, p, push_trial(trial, p, float(x[0])))[0])
+        return out
 
-    start = min(hi, max(lo, float(mu_p0)))
-    solution = least_squares(lambda x: least_squares_vector(rows(float(x[0])), c), [start], bounds=([lo], [hi]),
-                             diff_step=1e-2, max_nfev=max_evaluations, x_scale=[0.1])
-    best = float(solution.x[0])
-    return FrictionFit(best, error_of_residuals(rows(start), c), error_of_residuals(rows(best), c), evaluations)
+    start = [min(hi, max(lo, float(mu_p0)))] + ([1.0] if fit_pressure else [])
+    lower, upper = [lo] + ([C_SCALE_BOUNDS[0]] if fit_pressure else []), [hi] + ([C_SCALE_BOUNDS[1]] if fit_pressure else [])
+    solution = least_squares(lambda x: least_squares_vector(rows(x), c), start, bounds=(lower, upper),
+                             diff_step=1e-2, max_nfev=max_evaluations, x_scale=[0.1] * len(start))
+    best = [float(v) for v in solution.x]
+    return FrictionFit(best[0], best[1] if fit_pressure else 1.0, error_of_residuals(rows(start), c),
+                       error_of_residuals(rows(best), c), evaluations)

@@ -176,4 +176,6 @@ def test_fitting_the_pusher_friction_does_not_worsen_the_error(real_trials, odb)
     pushed = [pushed_object(t, odb) for t in real_trials]
     fit = fit_pusher_friction(real_trials, pushed, 0.25, max_evaluations=12)
     assert fit.after.e <= fit.before.e + 1e-12
-    assert 0.01 <= fit.mu_p <= 1.5 and fit.evaluations < 60
+    assert 0.01 <= fit.mu_p <= 1.5 and fit.c_scale == 1.0 and fit.evaluations < 60
+    with_pressure = fit_pusher_friction(real_trials, pushed, 0.25, fit_pressure=True, max_evaluations=12)
+    assert with_pressure.after.e <= with_pressure.before.e + 1e-12 and 0.3 <= with_pressure.c_scale <= 1.5
