@@ -33,7 +33,7 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..errors import BridgeError, RecordingError
+from ..errors import LimitSurfaceError, RecordingError
 from ..odb import ObjectDatabase
 from ..recording.mitpush import PUSHER_RADIUS, load_outline
 from ..sim.simulate import ReplayResult
@@ -44,10 +44,6 @@ GRAVITY = 9.81  # m/s^2
 MU_P_BOUNDS = (0.01, 1.5)  # pusher-object friction a fit may choose
 C_SCALE_BOUNDS = (0.3, 1.5)  # factor on the uniform pressure's c a fit may choose (0: all at the centre)
 _EPS = 1e-12
-
-
-class LimitSurfaceError(BridgeError):
-    """Bad input to the limit-surface model: an outline, a pusher path, a friction coefficient."""
 
 
 @dataclass(frozen=True, eq=False)

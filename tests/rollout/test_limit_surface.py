@@ -6,8 +6,9 @@ import math
 import numpy as np
 import pytest
 
+from bridge.errors import LimitSurfaceError
 from bridge.recording.mitpush import PUSHER_RADIUS
-from bridge.rollout.limit_surface import (LimitSurfaceError, fit_pusher_friction, limit_surface_of, push_object,
+from bridge.rollout.limit_surface import (fit_pusher_friction, limit_surface_of, push_object,
                                           push_residuals, push_trial, pushed_object, surface_friction_from_force)
 
 SIDE = 0.09  # m, rect1
