@@ -47,6 +47,10 @@ class SimulationFailure(SceneError):
     """The simulation produced garbage (NaN, object through the table, robot not following telemetry)."""
 
 
+class LimitSurfaceError(BridgeError):
+    """Bad input to the limit-surface baseline of planar pushing: an outline, a pusher path, a coefficient."""
+
+
 class ParameterError(BridgeError):
     """A malformed parameter or scene file, an unknown kind, a target that names nothing."""
 

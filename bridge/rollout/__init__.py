@@ -5,6 +5,7 @@ rollout.py    `Rollout` (world, scene values, telemetry, extras, hooks, settings
 executors.py  serial / process pool / dask: `Executor.run(jobs) -> outcomes`
 compare.py    pose interpolation, residuals, the paper's error (eq. 1-4), least-squares vectors
 trials.py     recordings prepared for comparison (`Trial`, `load_trials`)
+limit_surface.py  the analytical baseline of quasi-static planar pushing (ellipsoidal limit surface), no Drake
 """
 from .compare import DEFAULT_C, PoseError, error_of_residuals, observed_residuals, pose_residual, sample_track
 from .executors import Executor, make_executor

@@ -1,0 +1,231 @@
+"""Real pushing physics (issue 12): Drake's replay of the MIT planar pushes beside the analytical baseline, the
+ellipsoidal limit surface (`bridge.rollout.limit_surface`), each nominal and with friction fitted on other pushes.
+
+Data: MIT planar pushing (Yu, Bauza, Fazeli, Rodriguez, "More than a Million Ways to Be Pushed", IROS 2016), the
+shared subset's train/ folder. For each shape, k-fold over its pushes (k = min(5, n), push i in fold i mod k): every
+push is held out once and scored by what was fitted on the others. Columns:
+
+  drake        nominal Drake replay (`run_rollout`, the object database's friction)
+  ls           limit surface, nominal friction (Drake's combined coefficients of the same pairs)
+  ls_fit       limit surface, mu_p fitted on the training folds (scipy least squares on the paper's E); mu_s
+               does not change quasi-static poses, so it is fitted on the recorded pusher force instead
+               (reported, where the force can be trusted)
+  ls_fit_c     limit surface, mu_p and a factor on the uniform pressure's c fitted on the training folds (is the
+               pressure distribution what the baseline misses?)
+  drake_fit    Drake, the surface's and the rod's friction fitted on the training folds (`fit_parameters`,
+               Levenberg-Marquardt, a small budget; only with --drake-fit: expensive)
+
+Scores per held-out push: final-pose error (mm, deg: the last observation) and the paper's trajectory error
+e_t (mm), e_R (deg) over the observed track (`bridge.rollout.compare`, eq. 1-4). Median and p90 per shape and
+over all pushes; one table; JSON in benchmarks/results/real_push.json.
+
+    BRIDGE_MIT_PUSH=../shared/datasets/mit-push python benchmarks/real_push_benchmark.py          # a few minutes
+    python benchmarks/real_push_benchmark.py --quick --shapes ellip1 rect1
+    python benchmarks/real_push_benchmark.py --drake-fit ellip1    # all shapes, Drake also fitted on ellip1's folds
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from bridge.fit.evaluate import residuals_of, sim_options  # noqa: E402
+from bridge.fit.fit import fit_parameters  # noqa: E402
+from bridge.odb import load_object_database  # noqa: E402
+from bridge.params import kind_named, parse_params, trial_rollout  # noqa: E402
+from bridge.recording.mitpush import find_mit_push_root, push_spec  # noqa: E402
+from bridge.rollout import load_trials, make_executor  # noqa: E402
+from bridge.rollout.compare import error_of_residuals  # noqa: E402
+from bridge.rollout.limit_surface import (fit_pusher_friction, push_residuals, push_trial, pushed_object,  # noqa: E402
+                                          surface_friction_from_force)
+from bridge.rollout.rollout import Job  # noqa: E402
+from bridge.sim.friction import combined_friction  # noqa: E402
+
+COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit")
+METRICS = ("final_mm", "final_deg", "e_t_mm", "e_R_deg")
+MAX_FOLDS = 5
+ROD = "pusher/pusher_rod"
+ROD_FRICTION = 0.25  # drake:mu_static of the rod in models/pusher2d/pusher2d.sdf (no object database entry)
+SURFACE = "surface"
+DRAKE_FIT_PARAMS = {"params": [  # as benchmarks/fit_benchmark.py's MIT part
+    {"kind": "friction", "target": SURFACE, "bounds": [0.05, 1.5], "start": 0.25},
+    {"kind": "friction", "target": ROD, "bounds": [0.02, 1.5], "start": 0.25},
+]}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--shapes", nargs="*", default=None, help="shapes to run (default: every shape in train/)")
+    parser.add_argument("--trials", type=int, default=None, help="at most N pushes per shape")
+    parser.add_argument("--quick", action="store_true", help="3 pushes per shape, 2 LM iterations for --drake-fit")
+    parser.add_argument("--drake-fit", nargs="*", default=None, metavar="SHAPE",
+                        help="also fit Drake's friction per fold (slow): on the shapes named, or on all without names")
+    parser.add_argument("--drake-fit-iterations", type=int, default=4, help="LM iterations per fold (default 4)")
+    parser.add_argument("--json", default=str(REPO / "benchmarks" / "results" / "real_push.json"))
+    args = parser.parse_args(argv)
+    if args.trials is not None and args.trials < 1:
+        parser.error("--trials must be >= 1")
+    root = find_mit_push_root()
+    if root is None or not (root / "train").is_dir():
+        print("MIT planar pushing dataset not found: set BRIDGE_MIT_PUSH (the folder holding train/ and obj/)")
+        return
+    per_shape = 3 if args.quick and args.trials is None else args.trials
+    iterations = 2 if args.quick else args.drake_fit_iterations
+    files = select_files(root / "train", args.shapes, per_shape)
+    odb = load_object_database()
+    started = time.perf_counter()
+    rows, fits = [], {}
+    with make_executor("serial", odb) as executor:
+        for shape, paths in files.items():
+            shape_started = time.perf_counter()
+            trials = load_trials(paths, odb)
+            drake_fit = args.drake_fit is not None and (not args.drake_fit or shape in args.drake_fit)
+            shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations)
+            rows.extend(dict(r, shape=shape) for r in shape_rows)
+            print(f"{shape}: {len(trials)} pushes, {time.perf_counter() - shape_started:.0f} s", flush=True)
+    summary = summarise(rows)
+    print_table(summary, fits, args.drake_fit is not None)
+    out = Path(args.json)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({
+        "data": "MIT planar pushing, Yu et al. IROS 2016 (arXiv:1604.04038), shared subset train/",
+        "mode": "quick" if args.quick else "full", "per_shape": per_shape, "drake_fit": args.drake_fit,
+        "drake_fit_iterations": iterations if args.drake_fit is not None else None, "folds": f"min({MAX_FOLDS}, n)",
+        "machine": platform.platform(), "total_s": round(time.perf_counter() - started, 1),
+        "summary": summary, "fits": fits, "trials": rows}, indent=1) + "\n")
+    print(f"wrote {out} ({time.perf_counter() - started:.0f} s)")
+
+
+def select_files(train: Path, shapes: list[str] | None, per_shape: int | None) -> dict[str, list[Path]]:
+    by_shape: dict[str, list[Path]] = {}
+    for path in sorted(train.glob("*.h5")):
+        by_shape.setdefault(push_spec(path, None, None).shape, []).append(path)
+    if shapes:
+        unknown = sorted(set(shapes) - set(by_shape))
+        if unknown:
+            raise SystemExit(f"--shapes: {', '.join(unknown)} not in {train}; shapes there: {', '.join(by_shape)}")
+        by_shape = {s: by_shape[s] for s in shapes}
+    if per_shape is not None:  # spread over the pushes, not the first N names (one speed, one side)
+        by_shape = {s: [p[i] for i in np.linspace(0, len(p) - 1, min(per_shape, len(p))).round().astype(int)]
+                    for s, p in by_shape.items()}
+    return by_shape
+
+
+def nominal_friction(trial, odb, pushed) -> tuple[float, float]:
+    """(mu_s, mu_p): Drake's combined coefficients of object-surface and object-rod at the nominal values."""
+    friction = kind_named("friction")
+    shape_mu = odb.get(trial.world.objects[pushed.name].type).physics.friction
+    return (combined_friction(friction.null(trial.world, odb, SURFACE), shape_mu),
+            combined_friction(ROD_FRICTION, shape_mu))
+
+
+def scores(rows: list[np.ndarray]) -> dict[str, float]:
+    error = error_of_residuals(rows)
+    final = np.concatenate(rows)[-1]
+    return {"final_mm": 1e3 * float(np.linalg.norm(final[:3])), "final_deg": math.degrees(np.linalg.norm(final[3:])),
+            "e_t_mm": 1e3 * error.e_t, "e_R_deg": math.degrees(error.e_R), "e_mm": 1e3 * error.e}
+
+
+def run_shape(trials, odb, executor, drake_fit: bool, iterations: int) -> tuple[list[dict], dict]:
+    pushed = [pushed_object(t, odb) for t in trials]
+    mu_s0, mu_p0 = nominal_friction(trials[0], odb, pushed[0])
+    k = min(MAX_FOLDS, len(trials))
+    folds = [[i for i in range(len(trials)) if i % k == f] for f in range(k)]
+    rows = [{"trial": t.name, "fold": i % k} for i, t in enumerate(trials)]
+    outcomes = executor.run([Job(trial_rollout(t, (), odb), sim_options(t)) for t in trials])
+    for row, trial, outcome, p in zip(rows, trials, outcomes, pushed):
+        row["drake"] = None if outcome.failed else scores(residuals_of(trial, outcome.result, odb))
+        if outcome.failed:
+            row["drake_failure"] = outcome.failure
+        push = push_trial(trial, p, mu_p0)
+        row["ls"] = scores(push_residuals(trial, p, push)[0])
+        row["mu_s_from_force"] = surface_friction_from_force(trial, p, push)
+    fold_fits = []
+    spec = parse_params(DRAKE_FIT_PARAMS, "real_push_benchmark Drake friction")
+    for f, held in enumerate(folds):
+        train = [i for i in range(len(trials)) if i not in held]
+        if not train:  # one push: nothing to fit on
+            for i in held:
+                rows[i]["ls_fit"] = rows[i]["ls_fit_c"] = None
+            continue
+        fit = fit_pusher_friction([trials[i] for i in train], [pushed[i] for i in train], mu_p0)
+        forces = [rows[i]["mu_s_from_force"] for i in train if rows[i]["mu_s_from_force"] is not None]
+        entry = {"fold": f, "held_out": [trials[i].name for i in held], "ls_mu_p": fit.mu_p,
+                 "ls_mu_s_from_force": float(np.median(forces)) if forces else None,
+                 "ls_train_e_mm": [1e3 * fit.before.e, 1e3 * fit.after.e], "ls_evaluations": fit.evaluations}
+        for i in held:
+            rows[i]["ls_fit"] = scores(push_residuals(trials[i], pushed[i], push_trial(trials[i], pushed[i], fit.mu_p))[0])
+        fit_c = fit_pusher_friction([trials[i] for i in train], [pushed[i] for i in train], mu_p0, fit_pressure=True)
+        entry.update(ls_c_mu_p=fit_c.mu_p, ls_c_scale=fit_c.c_scale, ls_c_train_e_mm=[1e3 * fit_c.before.e, 1e3 * fit_c.after.e])
+        for i in held:
+            scaled = replace(pushed[i], surface=replace(pushed[i].surface, c=pushed[i].surface.c * fit_c.c_scale))
+            rows[i]["ls_fit_c"] = scores(push_residuals(trials[i], scaled, push_trial(trials[i], scaled, fit_c.mu_p))[0])
+        if drake_fit:
+            started = time.perf_counter()
+            result = fit_parameters([trials[i] for i in train], spec, odb=odb, executor=executor, optimizer="lm",
+                                    generations=iterations, hold_out=0, seed=f)
+            model = spec.model([result.values[p.name] for p in spec.free])
+            held_out = executor.run([Job(trial_rollout(trials[i], model, odb), sim_options(trials[i])) for i in held])
+            for i, outcome in zip(held, held_out):
+                rows[i]["drake_fit"] = None if outcome.failed else scores(residuals_of(trials[i], outcome.result, odb))
+            entry.update(drake_values=dict(result.values), drake_train_e_mm=[1e3 * result.before.e, 1e3 * result.after.e],
+                         drake_simulations=result.simulations, drake_wall_s=round(time.perf_counter() - started, 1))
+            print(f"  fold {f}: Drake fit {entry['drake_values']} in {entry['drake_wall_s']:.0f} s", flush=True)
+        fold_fits.append(entry)
+    return rows, {"nominal_mu_s": mu_s0, "nominal_mu_p": mu_p0, "c_m": pushed[0].surface.c,
+                  "mass_kg": pushed[0].mass, "folds": fold_fits}
+
+
+def summarise(rows: list[dict]) -> dict:
+    groups = {s: [r for r in rows if r["shape"] == s] for s in dict.fromkeys(r["shape"] for r in rows)}
+    groups["all"] = rows
+    out = {}
+    for name, group in groups.items():
+        out[name] = {"pushes": len(group)}
+        for column in COLUMNS:
+            got = [r[column] for r in group if r.get(column) is not None]
+            if not got:
+                continue
+            out[name][column] = {m: {"median": float(np.median([g[m] for g in got])),
+                                     "p90": float(np.percentile([g[m] for g in got], 90))} for m in METRICS}
+            out[name][column]["n"] = len(got)
+    return out
+
+
+def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
+    columns = [c for c in COLUMNS if c != "drake_fit" or drake_fit]
+    print("\nheld-out error per push: median / p90 (final pose: mm, deg; trajectory: the paper's e_t mm, e_R deg)")
+    print(f"{'shape':<8}{'n':>4}  {'model':<10}" + "".join(f"{m:>16}" for m in METRICS))
+    for shape, entry in summary.items():
+        for column in columns:
+            if column not in entry:
+                continue
+            cells = "".join(f"{entry[column][m]['median']:>8.2f}/{entry[column][m]['p90']:<7.2f}" for m in METRICS)
+            print(f"{shape:<8}{entry[column]['n']:>4}  {column:<10}{cells}")
+    print("\nfitted per fold (limit surface: pair coefficient mu_p; mu_s from the recorded force, median over the "
+          "training pushes that have one)")
+    for shape, fit in fits.items():
+        mu_p = [f["ls_mu_p"] for f in fit["folds"]]
+        mu_s = [f["ls_mu_s_from_force"] for f in fit["folds"] if f["ls_mu_s_from_force"] is not None]
+        with_c = ", ".join(f"{f['ls_c_mu_p']:.2f} x{f['ls_c_scale']:.2f}" for f in fit["folds"])
+        line = (f"{shape:<8} c = {fit['c_m'] * 1e3:.1f} mm, nominal mu_s {fit['nominal_mu_s']:.2f} mu_p "
+                f"{fit['nominal_mu_p']:.2f}; fitted mu_p {', '.join(f'{v:.2f}' for v in mu_p) or '-'}; mu_s "
+                f"{', '.join(f'{v:.2f}' for v in mu_s) or 'no trusted force'}; mu_p with c x factor {with_c or '-'}")
+        if any("drake_values" in f for f in fit["folds"]):
+            line += "; Drake " + "; ".join(", ".join(f"{k.split('[')[1][:-1]} {v:.2f}" for k, v in f["drake_values"].items())
+                                           for f in fit["folds"] if "drake_values" in f)
+        print(line)
+
+
+if __name__ == "__main__":
+    main()
