@@ -1,11 +1,27 @@
 """Fixtures shared by every test layer."""
 import os
 import shutil
+import signal
 from pathlib import Path
 
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def _signal_handlers_kept(request):
+    """A test that leaves SIGINT or SIGTERM handled otherwise than it found them fails (and the handler is put
+    back): tests of Ctrl-C behaviour that run after it in the same worker would otherwise fail for its sake."""
+    signums = (signal.SIGINT, signal.SIGTERM)
+    before = {s: signal.getsignal(s) for s in signums}
+    yield
+    left = {s: signal.getsignal(s) for s in signums if signal.getsignal(s) is not before[s]}
+    for s in left:
+        signal.signal(s, before[s])
+    if left:
+        pytest.fail(f"{request.node.nodeid} left " + ", ".join(f"{signal.Signals(s).name} handled by {h!r}"
+                                                                for s, h in left.items()))
 
 
 def pytest_collection_modifyitems(config, items):

@@ -59,7 +59,16 @@ def test_an_interrupt_while_writing_leaves_the_old_set(old_set, tmp_path, monkey
     assert not _temps(tmp_path)
 
 
-def test_a_sigint_after_the_first_rename_waits_for_the_whole_set(old_set, tmp_path, monkeypatch):
+@pytest.fixture
+def ctrl_c():
+    """Ctrl-C as an interactive run has it (KeyboardInterrupt): a shell that starts the tests in the background
+    (`pytest &` in a script) leaves SIGINT ignored, and an ignored signal is not delivered at all."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_a_sigint_after_the_first_rename_waits_for_the_whole_set(old_set, tmp_path, monkeypatch, ctrl_c):
     """A real SIGINT between two renames is held back: the set is completed, then the interrupt is raised."""
     real_replace = os.replace
     renamed = []
@@ -103,7 +112,7 @@ def test_a_none_content_removes_a_stale_member(old_set):
     assert old_set[0].read_text() == "new\n" and not old_set[2].exists() and old_set[1].read_text().startswith("old")
 
 
-def test_deferred_signals_deliver_after_the_block():
+def test_deferred_signals_deliver_after_the_block(ctrl_c):
     seen = []
     with pytest.raises(KeyboardInterrupt):
         with deferred_signals():
@@ -161,7 +170,7 @@ def test_replace_folder_keeps_the_old_folder_when_interrupted(tmp_path):
     assert not (tmp_path / "fresh").exists() and not _temps(tmp_path)
 
 
-def test_replace_folder_swaps_whole_and_carries_the_other_files(tmp_path, monkeypatch):
+def test_replace_folder_swaps_whole_and_carries_the_other_files(tmp_path, monkeypatch, ctrl_c):
     folder = tmp_path / "rec"
     (folder / "sub").mkdir(parents=True)
     (folder / "world.yaml").write_text("old")

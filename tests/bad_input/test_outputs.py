@@ -243,7 +243,7 @@ def test_infer_interrupted_while_writing_leaves_the_old_world_and_problem(record
     assert sorted(p.name for p in out.iterdir()) == ["problem_after.pddl", "world_after.yaml"]  # no lock, no temp
 
 
-def _fake_enact(world, odb, templates, steps, *, rng=None):
+def _fake_enact(world, odb, templates, steps, *, rng=None, free_motion=None):
     """The enactment without its simulation (seconds of Drake): the demo's telemetry, nothing moved."""
     from types import SimpleNamespace
 
