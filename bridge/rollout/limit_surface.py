@@ -36,6 +36,7 @@ from scipy.optimize import least_squares
 from ..errors import LimitSurfaceError, RecordingError
 from ..odb import ObjectDatabase
 from ..recording.mitpush import PUSHER_RADIUS, load_outline
+from ..sim.prisms import centroid, signed_area
 from ..sim.simulate import ReplayResult
 from .compare import DEFAULT_C, PoseError, error_of_residuals, least_squares_vector, observed_residuals
 from .trials import Trial
@@ -86,16 +87,13 @@ def limit_surface_of(outline: np.ndarray, *, source: str | None = None) -> Limit
                                 source=source, field="outline")
     if not np.all(np.isfinite(points)):
         raise LimitSurfaceError("outline has non-finite vertices", source=source, field="outline")
-    a, b = points, np.roll(points, -1, axis=0)
-    cross = a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
-    signed_area = 0.5 * float(cross.sum())
-    if abs(signed_area) < 1e-12:
+    area = signed_area(points)
+    if abs(area) < 1e-12:
         raise LimitSurfaceError("outline encloses no area (collinear or repeated vertices)", source=source,
                                 field="outline")
-    centre = ((a + b) * cross[:, None]).sum(axis=0) / (6.0 * signed_area)
-    if signed_area < 0:
-        points = points[::-1].copy()
-    area = abs(signed_area)
+    centre = centroid(points)
+    if area < 0:
+        points, area = points[::-1].copy(), -area
     c = _mean_distance(points - centre) / area
     points.setflags(write=False)
     centre.setflags(write=False)
