@@ -14,6 +14,9 @@ push is held out once and scored by what was fitted on the others. Columns:
                pressure distribution what the baseline misses?)
   drake_fit    Drake, the surface's and the rod's friction fitted on the training folds (`fit_parameters`,
                Levenberg-Marquardt, a small budget; only with --drake-fit: expensive)
+  drake_ps     Drake with the pressure_distribution effect: the support footprint's scale (`support_scale`,
+               bridge/sim/support.py) chosen on the training folds from a grid (--support-grid; every push is
+               replayed once per grid value, then each fold picks the value of least training E)
 
 Scores per held-out push: final-pose error (mm, deg: the last observation) and the paper's trajectory error
 e_t (mm), e_R (deg) over the observed track (`bridge.rollout.compare`, eq. 1-4). Median and p90 per shape and
@@ -22,6 +25,7 @@ over all pushes; one table; JSON in benchmarks/results/real_push.json.
     BRIDGE_MIT_PUSH=../shared/datasets/mit-push python benchmarks/real_push_benchmark.py          # a few minutes
     python benchmarks/real_push_benchmark.py --quick --shapes ellip1 rect1
     python benchmarks/real_push_benchmark.py --drake-fit ellip1    # all shapes, Drake also fitted on ellip1's folds
+    python benchmarks/real_push_benchmark.py --support-grid 0.5 0.6 0.7 0.8 0.9 1.1 1.2   # drake_ps
 """
 from __future__ import annotations
 
@@ -45,13 +49,14 @@ from bridge.odb import load_object_database  # noqa: E402
 from bridge.params import kind_named, parse_params, trial_rollout  # noqa: E402
 from bridge.recording.mitpush import find_mit_push_root, push_spec  # noqa: E402
 from bridge.rollout import load_trials, make_executor  # noqa: E402
-from bridge.rollout.compare import error_of_residuals  # noqa: E402
+from bridge.params.model import Setting  # noqa: E402
+from bridge.rollout.compare import error_of_residuals, least_squares_vector  # noqa: E402
 from bridge.rollout.limit_surface import (fit_pusher_friction, push_residuals, push_trial, pushed_object,  # noqa: E402
                                           surface_friction_from_force)
 from bridge.rollout.rollout import Job  # noqa: E402
 from bridge.sim.friction import combined_friction  # noqa: E402
 
-COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit")
+COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps")
 METRICS = ("final_mm", "final_deg", "e_t_mm", "e_R_deg")
 MAX_FOLDS = 5
 ROD = "pusher/pusher_rod"
@@ -71,6 +76,8 @@ def main(argv=None) -> None:
     parser.add_argument("--drake-fit", nargs="*", default=None, metavar="SHAPE",
                         help="also fit Drake's friction per fold (slow): on the shapes named, or on all without names")
     parser.add_argument("--drake-fit-iterations", type=int, default=4, help="LM iterations per fold (default 4)")
+    parser.add_argument("--support-grid", nargs="*", type=float, default=None, metavar="SCALE",
+                        help="the drake_ps column: support footprint scales to try (1 is always tried)")
     parser.add_argument("--json", default=str(REPO / "benchmarks" / "results" / "real_push.json"))
     args = parser.parse_args(argv)
     if args.trials is not None and args.trials < 1:
@@ -90,7 +97,7 @@ def main(argv=None) -> None:
             shape_started = time.perf_counter()
             trials = load_trials(paths, odb)
             drake_fit = args.drake_fit is not None and (not args.drake_fit or shape in args.drake_fit)
-            shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations)
+            shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations, args.support_grid)
             rows.extend(dict(r, shape=shape) for r in shape_rows)
             print(f"{shape}: {len(trials)} pushes, {time.perf_counter() - shape_started:.0f} s", flush=True)
     summary = summarise(rows)
@@ -101,6 +108,7 @@ def main(argv=None) -> None:
         "data": "MIT planar pushing, Yu et al. IROS 2016 (arXiv:1604.04038), shared subset train/",
         "mode": "quick" if args.quick else "full", "per_shape": per_shape, "drake_fit": args.drake_fit,
         "drake_fit_iterations": iterations if args.drake_fit is not None else None, "folds": f"min({MAX_FOLDS}, n)",
+        "support_grid": args.support_grid,
         "machine": platform.platform(), "total_s": round(time.perf_counter() - started, 1),
         "summary": summary, "fits": fits, "trials": rows}, indent=1) + "\n")
     print(f"wrote {out} ({time.perf_counter() - started:.0f} s)")
@@ -136,7 +144,18 @@ def scores(rows: list[np.ndarray]) -> dict[str, float]:
             "e_t_mm": 1e3 * error.e_t, "e_R_deg": math.degrees(error.e_R), "e_mm": 1e3 * error.e}
 
 
-def run_shape(trials, odb, executor, drake_fit: bool, iterations: int) -> tuple[list[dict], dict]:
+def support_grid(trials, pushed, odb, executor, grid: list[float]) -> dict[float, list[list[np.ndarray] | None]]:
+    """Each push's residuals replayed at each footprint scale (None where the replay failed)."""
+    out = {}
+    for scale in grid:
+        jobs = [Job(trial_rollout(t, (Setting("support_scale", p.name, scale),), odb), sim_options(t))
+                for t, p in zip(trials, pushed)]
+        out[scale] = [None if o.failed else residuals_of(t, o.result, odb) for t, o in zip(trials, executor.run(jobs))]
+    return out
+
+
+def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
+              grid: list[float] | None = None) -> tuple[list[dict], dict]:
     pushed = [pushed_object(t, odb) for t in trials]
     mu_s0, mu_p0 = nominal_friction(trials[0], odb, pushed[0])
     k = min(MAX_FOLDS, len(trials))
@@ -152,6 +171,7 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int) -> tuple[
         row["mu_s_from_force"] = surface_friction_from_force(trial, p, push)
     fold_fits = []
     spec = parse_params(DRAKE_FIT_PARAMS, "real_push_benchmark Drake friction")
+    by_scale = support_grid(trials, pushed, odb, executor, sorted({1.0, *grid})) if grid is not None else None
     for f, held in enumerate(folds):
         train = [i for i in range(len(trials)) if i not in held]
         if not train:  # one push: nothing to fit on
@@ -181,9 +201,23 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int) -> tuple[
             entry.update(drake_values=dict(result.values), drake_train_e_mm=[1e3 * result.before.e, 1e3 * result.after.e],
                          drake_simulations=result.simulations, drake_wall_s=round(time.perf_counter() - started, 1))
             print(f"  fold {f}: Drake fit {entry['drake_values']} in {entry['drake_wall_s']:.0f} s", flush=True)
+        if by_scale is not None:  # the scale of least training E (the paper's, over every training sample)
+            def training_e(scale: float) -> float:
+                got = [by_scale[scale][i] for i in train]
+                if any(g is None for g in got):
+                    return math.inf
+                return float(np.linalg.norm(least_squares_vector([r for g in got for r in g])))
+            best = min(by_scale, key=training_e)
+            entry.update(support_scale=best, support_train_e_mm={str(k): 1e3 * training_e(k) for k in by_scale})
+            for i in held:
+                rows[i]["drake_ps"] = None if by_scale[best][i] is None else scores(by_scale[best][i])
         fold_fits.append(entry)
+    curve = None
+    if by_scale is not None:  # every push at each scale (not held out: how the error depends on the scale)
+        curve = {str(k): {m: float(np.median([scores(r)[m] for r in v if r is not None])) for m in METRICS}
+                 for k, v in by_scale.items()}
     return rows, {"nominal_mu_s": mu_s0, "nominal_mu_p": mu_p0, "c_m": pushed[0].surface.c,
-                  "mass_kg": pushed[0].mass, "folds": fold_fits}
+                  "mass_kg": pushed[0].mass, "folds": fold_fits, "support_curve": curve}
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -203,7 +237,7 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
-    columns = [c for c in COLUMNS if c != "drake_fit" or drake_fit]
+    columns = [c for c in COLUMNS if c != "drake_fit" or drake_fit]  # drake_ps: shown where it was run
     print("\nheld-out error per push: median / p90 (final pose: mm, deg; trajectory: the paper's e_t mm, e_R deg)")
     print(f"{'shape':<8}{'n':>4}  {'model':<10}" + "".join(f"{m:>16}" for m in METRICS))
     for shape, entry in summary.items():
@@ -221,6 +255,8 @@ def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
         line = (f"{shape:<8} c = {fit['c_m'] * 1e3:.1f} mm, nominal mu_s {fit['nominal_mu_s']:.2f} mu_p "
                 f"{fit['nominal_mu_p']:.2f}; fitted mu_p {', '.join(f'{v:.2f}' for v in mu_p) or '-'}; mu_s "
                 f"{', '.join(f'{v:.2f}' for v in mu_s) or 'no trusted force'}; mu_p with c x factor {with_c or '-'}")
+        if any("support_scale" in f for f in fit["folds"]):
+            line += "; support scale " + ", ".join(f"{f['support_scale']:.2f}" for f in fit["folds"])
         if any("drake_values" in f for f in fit["folds"]):
             line += "; Drake " + "; ".join(", ".join(f"{k.split('[')[1][:-1]} {v:.2f}" for k, v in f["drake_values"].items())
                                            for f in fit["folds"] if "drake_values" in f)

@@ -31,6 +31,7 @@ ONSET_HOLD = 3  # samples it must stay above
 SMOOTH = 3  # samples in the moving average
 SIGNIFICANT = 2.0  # RMS of the normalised residual above which a (recording, object) carries a mismatch
 QUIET_MOTION = 0.001  # m: before the object has moved this far (observed and simulated) the residual is "quiet"
+TURN_LEVEL = math.radians(3.0)  # a simulated turn below this (or 5 noise floors of yaw) gives no turn ratio
 
 
 @dataclass(frozen=True, eq=False)
@@ -310,6 +311,11 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
     level = max(QUIET_MOTION, 5.0 * float(np.mean(s.sigma[:2])))
     for key, xyz in (("moves_obs_s", s.xyz), ("moves_sim_s", sim_xyz)):
         f[key] = _crossing(t, np.linalg.norm(xyz[:, :2] - xyz[:3, :2].mean(axis=0), axis=1), level)
+    # how much the object turned, observed / simulated (a pressure distribution or a wrong moment of the support
+    # scales every turn alike; an off-centre mass turns one way or the other by which side is pushed)
+    turns = [float(np.unwrap(np.arctan2(R[:, 1, 0], R[:, 0, 0]))[-1] - np.arctan2(R[0, 1, 0], R[0, 0, 0]))
+             for R in (s.R, sim_R)]
+    f["turn_ratio"] = turns[0] / turns[1] if abs(turns[1]) > max(TURN_LEVEL, 5.0 * sigma["yaw"]) else None
     f["final_along"] = float(comps["along"][-1] / sigma["along"])
     peak = float(np.max(np.abs(comps["along"]))) or 1.0
     f["transient"] = float(1.0 - abs(comps["along"][-1]) / peak)

@@ -36,6 +36,7 @@ from ..odb.ranges import DISSIPATION, FRICTION, HYDROELASTIC_MODULUS, MASS, Phys
 from ..rollout.rollout import Rollout
 from ..sim.extras import SurfacePatch, WeldedShape
 from ..sim.shapes import mass_properties
+from ..sim.support import SupportPressure
 from ..values import Pose
 from ..world import WorldState
 from .surfaces import footprint_half, movable_objects, supported_by, surface_top
@@ -686,6 +687,83 @@ class PatchMu(_Member):
         return 0.3 * self.null(world, odb, target)
 
 
+class Support(Family):
+    """Where a free object's weight rests (`bridge.sim.support`): its footprint scaled about its centroid and
+    moved, as contact geometry; a new scene per value. At the null values (scale 1, no offset) nothing is added:
+    the object rests on its own bottom."""
+
+    name = "pressure_distribution"
+    members = {"scale": "support_scale", "x": "support_x", "y": "support_y"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        scale, x, y = values.get("scale", 1.0), values.get("x", 0.0), values.get("y", 0.0)
+        if scale == 1.0 and x == 0.0 and y == 0.0:
+            return rollout
+        return rollout.with_extras(SupportPressure(target, float(scale), (float(x), float(y))))
+
+
+class _SupportMember(_Member):
+    null_is_world = True
+    family, targets = Support, "free objects"
+
+    def null(self, world, odb, target):
+        return 1.0 if self.component == "scale" else 0.0
+
+
+class SupportScale(_SupportMember):
+    name, component = "support_scale", "scale"
+    doc = ("where an object's weight rests: its footprint's size relative to its bottom (uniform pressure over "
+           "it); below 1 the weight rests towards the centre (less torsional friction), above 1 towards the rim")
+    physical = PhysicalRange(0.05, 1.5, "", "a share of the object's own footprint: 0.05 is nearly a point, 1.41 a "
+                             "ring at the rim")
+
+    def bounds(self, world, odb, target):
+        return 0.3, 1.4
+
+    def step(self, world, odb, target):
+        return 0.1
+
+    def negligible(self, world, odb, target):
+        return 0.05
+
+
+class _SupportOffset(_SupportMember):
+    unit, axis = "m", 0
+    physical = PhysicalRange(-1.0, 1.0, "m", "in m, object frame: no object on a table reaches 1 m from its centre")
+
+    def _half(self, world, odb, target) -> float:
+        return float(footprint_half(world, odb, target)[self.axis]) if target in world.objects else 0.05
+
+    def check_on(self, value, names, rollout, odb):
+        for name in names:
+            h = self._half(rollout.world, odb, name)
+            if abs(value) > h:
+                return (f"{self.name} {value:g} m puts the centre of pressure outside {name!r} (half extent {h:.4g} m "
+                        f"along its {'xy'[self.axis]})")
+        return None
+
+    def bounds(self, world, odb, target):
+        h = self._half(world, odb, target)
+        return -0.35 * h, 0.35 * h
+
+    def step(self, world, odb, target):
+        return 0.1 * self._half(world, odb, target)
+
+    def negligible(self, world, odb, target):
+        return 0.001
+
+
+class SupportX(_SupportOffset):
+    name, component, axis = "support_x", "x", 0
+    doc = "where an object's weight rests: the centre of pressure's offset from the footprint's centroid, object x"
+
+
+class SupportY(_SupportOffset):
+    name, component, axis = "support_y", "y", 1
+    doc = "where an object's weight rests: the centre of pressure's offset from the footprint's centroid, object y"
+
+
 # --- the registry -------------------------------------------------------------------------------------------
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Friction(), DynamicFriction(), Dissipation(), HydroelasticModulus(),
@@ -694,6 +772,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     SurfaceSlopeX(), SurfaceSlopeY(), SurfaceDz(),
     ObstacleX(), ObstacleY(),
     PatchCx(), PatchCy(), PatchHalf(), PatchMu(),
+    SupportScale(), SupportX(), SupportY(),
 )}
 
 

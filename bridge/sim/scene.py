@@ -33,6 +33,7 @@ from ..values import Pose
 from ..world import WorldState
 from .shapes import check_shape, drake_shape, mass_properties
 from .sources import ConstantForces, DesiredState
+from .support import SupportPressure
 
 
 class _FloorNotice(logging.Filter):
@@ -275,10 +276,11 @@ def _spatial_inertia(odb: ObjectDatabase, type_name: str) -> SpatialInertia:
 
 
 def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDatabase, config: SimConfig,
-               footprints: dict | None = None):
+               footprints: dict | None = None, support=None):
     """A free body (or anchored geometry for fixtures) with collision and visual geometry. A compliant mesh prism
     gets its outline and, when it has more vertices than the footprint may, a footprint as a second collision
-    geometry (`contact_shapes`); `footprints[name]` then says which is which, for `filter_footprints`."""
+    geometry (`contact_shapes`); so does any free object resting on a `support` (`sim/support.py`);
+    `footprints[name]` then says which is which, for `filter_footprints`."""
     g = obj_type.geometry
     if g is None:
         raise SceneError(f"object {name!r} of type {obj_type.name!r} has no geometry", source=str(obj_type.source))
@@ -290,7 +292,7 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     else:
         body, X_BG = plant.AddRigidBody(name, _spatial_inertia(odb, obj_type.name)), RigidTransform()
     props = proximity(obj_type, config)
-    outline, footprint = contact_shapes(obj_type, config) if not obj_type.fixed else (shape, None)
+    outline, footprint = contact_shapes(obj_type, config, support) if not obj_type.fixed else (shape, None)
     gid = plant.RegisterCollisionGeometry(body, X_BG, outline, f"{name}/collision", props)
     gids = [gid]
     if footprint is not None:
@@ -318,26 +320,27 @@ def contact_mode(obj_type: ObjectType, config: SimConfig) -> tuple[str, int]:
     return mode, vertices
 
 
-def contact_shapes(obj_type: ObjectType, config: SimConfig):
+def contact_shapes(obj_type: ObjectType, config: SimConfig, support=None):
     """(outline, footprint or None): the collision shapes of a free object. Only compliant mesh prisms differ from
     `drake_shape` (mode "prism", sim/prisms.py): a convex outline keeps Drake's `Convex` of the file, a non-convex
     one (`convex: false`) becomes a tetrahedral mesh of its own; a footprint (at most `footprint_vertices`
-    vertices, the outline's area and centroid, fanned from its centre) is added when the outline has more."""
+    vertices, the outline's area and centroid, fanned from its centre) is added when the outline has more. A
+    `support` (`sim/support.py`) replaces the footprint by the one it describes, for any flat-bottomed object."""
     from .prisms import contact_outlines, mesh_prism, prism_mesh
+    from .support import support_shape
 
     g = obj_type.geometry
     shape = drake_shape(obj_type)
-    if g.shape != "mesh" or obj_type.physics.hydroelastic_modulus is None:
-        return shape, None
     mode, vertices = contact_mode(obj_type, config)
-    prism = mesh_prism(g.mesh, g.scale) if mode == "prism" else None
-    if prism is None:
-        return shape, None
-    outline, footprint = contact_outlines(g.mesh, g.scale, g.convex, vertices)
-    exact = shape if outline is None else prism_mesh(outline, prism.z0, prism.z1, f"{obj_type.name}_outline")
-    if footprint is None:
-        return exact, None
-    return exact, prism_mesh(footprint, prism.z0, prism.z1, f"{obj_type.name}_footprint")
+    prism = mesh_prism(g.mesh, g.scale) if g.shape == "mesh" and mode == "prism" else None
+    exact = shape
+    if prism is not None and obj_type.physics.hydroelastic_modulus is not None:
+        outline, footprint = contact_outlines(g.mesh, g.scale, g.convex, vertices)
+        if outline is not None:
+            exact = prism_mesh(outline, prism.z0, prism.z1, f"{obj_type.name}_outline")
+        if footprint is not None and support is None:
+            return exact, prism_mesh(footprint, prism.z0, prism.z1, f"{obj_type.name}_footprint")
+    return exact, (None if support is None else support_shape(obj_type, support, vertices))
 
 
 def filter_footprints(plant, scene_graph, footprints: dict) -> None:
@@ -418,8 +421,9 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
         discrete_contact_approximation=config.discrete_contact_approximation)
     plant, scene_graph = AddMultibodyPlant(plant_config, builder)
     bodies, geometries, footprints = {}, {}, {}
+    supports = {e.object: e for e in extras if isinstance(e, SupportPressure)}
     for name, obj in world.objects.items():
-        body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config, footprints)
+        body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config, footprints, supports.get(name))
         geometries[name] = gids
         if body is not None:
             bodies[name] = body

@@ -19,6 +19,7 @@ from .hidden_obstacle import HiddenObstacle
 from .latency import Latency
 from .mass import Mass
 from .none import NoEffect
+from .pressure_distribution import PressureDistribution
 from .pusher_offset import PusherOffset
 from .surface_tilt import SurfaceTilt
 
@@ -32,6 +33,7 @@ EFFECTS: dict[str, Effect] = {
     "latency": Latency(),
     "pusher_offset": PusherOffset(),
     "hidden_obstacle": HiddenObstacle(),
+    "pressure_distribution": PressureDistribution(),
 }
 
 __all__ = ["EFFECTS", "Effect", "Evidence", "Recovery", "Truth", "get_effect", "pname", "register_effect"]
