@@ -715,11 +715,11 @@ class SupportScale(_SupportMember):
     name, component = "support_scale", "scale"
     doc = ("where an object's weight rests: its footprint's size relative to its bottom (uniform pressure over "
            "it); below 1 the weight rests towards the centre (less torsional friction), above 1 towards the rim")
-    physical = PhysicalRange(0.05, 1.5, "", "a share of the object's own footprint: 0.05 is nearly a point, 1.41 a "
-                             "ring at the rim")
+    physical = PhysicalRange(0.05, 1.8, "", "a share of the object's own footprint: 0.05 is nearly a point, 1.41 a "
+                             "disc's rim, 1.73 a square's corners")
 
     def bounds(self, world, odb, target):
-        return 0.3, 1.4
+        return 0.3, 1.6
 
     def step(self, world, odb, target):
         return 0.1

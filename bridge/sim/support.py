@@ -31,11 +31,12 @@ from ..odb import ObjectType
 
 CIRCLE_VERTICES = 24  # a cylinder's footprint polygon
 MIN_SCALE = 0.05  # a footprint smaller than this share of the object's is a point: a different object
+MAX_SCALE = 1.8  # a square's corners are 1.73 radii of gyration out: no weight rests farther than that
 
 
 @dataclass(frozen=True)
 class SupportPressure:
-    """A scene extra: object `object` rests on its footprint scaled by `scale` (0 < scale <= 1.5) about the
+    """A scene extra: object `object` rests on its footprint scaled by `scale` (MIN_SCALE to MAX_SCALE) about the
     footprint's centroid and moved by `offset` (m, object frame x y), or on `polygon` (object frame,
     counter-clockwise) when given. Applied where the object is added (`scene.add_object`); `add_to` checks that
     the object is there."""
@@ -87,9 +88,9 @@ def support_shape(obj_type: ObjectType, support: SupportPressure, vertices: int)
         raise SceneError(f"support pressure on {support.object!r}: type {obj_type.name!r} has point contact (no "
                          "hydroelastic_modulus); a pressure distribution needs a compliant object",
                          source=str(obj_type.source))
-    if not (math.isfinite(support.scale) and MIN_SCALE <= support.scale <= 1.5) or not all(
+    if not (math.isfinite(support.scale) and MIN_SCALE <= support.scale <= MAX_SCALE) or not all(
             math.isfinite(v) for v in support.offset):
-        raise SceneError(f"support pressure on {support.object!r}: scale must be in [{MIN_SCALE}, 1.5] and the "
+        raise SceneError(f"support pressure on {support.object!r}: scale must be in [{MIN_SCALE}, {MAX_SCALE}] and the "
                          f"offset finite, got scale {support.scale!r}, offset {support.offset!r}")
     poly, z0, z1 = bottom_polygon(obj_type, vertices)
     if support.polygon is not None:

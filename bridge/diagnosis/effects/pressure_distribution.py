@@ -21,8 +21,8 @@ from ...sim.prisms import centroid
 from ...sim.support import SupportPressure, bottom_polygon, gyration_radius
 from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
 
-SCALES = ((0.8, 1.2), (0.65, 1.3), (0.5, 1.4))  # the proof's footprint scales (small, medium, large): in, out
-SCALE_TOLERANCE = 0.1  # a recovered scale within this of the truth
+SCALES = ((0.8, 1.1), (0.65, 1.2), (0.5, 1.3))  # the proof's footprint scales (small, medium, large): in, out
+RECOVERED = (0.5, 2.0)  # the recovered departure from scale 1 over the concealed one
 DISC_VERTICES = 16
 
 
@@ -59,7 +59,7 @@ class PressureDistribution(Effect):
         ratios = self._ratios(evidence)
         if len(ratios) == 0:
             return [null]
-        scale = float(np.clip(np.median(ratios) ** -0.5, 0.3, 1.4))
+        scale = float(np.clip(np.median(ratios) ** -0.5, 0.3, 1.6))
         return [null] + ([{**null, pname("support_scale", target): scale}] if abs(scale - 1.0) > 0.05 else [])
 
     def describe(self, world, odb, target, values):
@@ -81,7 +81,10 @@ class PressureDistribution(Effect):
         return rollout.with_extras(SupportPressure(scene.object, polygon=disc)), rollout.telemetry
 
     def recovered(self, truth, found, model, world, odb):
+        """The footprint found departs from the object's own on the concealed side, by half to twice as much:
+        the concealed disc and the model's scaled footprint agree on the radius of gyration, not beyond it."""
         name = pname("support_scale", truth.target)
-        error = abs(found.get(name, 1.0) - truth.params[name])
-        return Recovery(error <= SCALE_TOLERANCE, error, "",
-                        f"scale {found.get(name, 1.0):.2f} vs {truth.params[name]:.2f} (+-{SCALE_TOLERANCE})")
+        got, want = found.get(name, 1.0), truth.params[name]
+        ratio = (got - 1.0) / (want - 1.0)
+        return Recovery(RECOVERED[0] <= ratio <= RECOVERED[1], abs(got - want), "",
+                        f"scale {got:.2f} vs {want:.2f} (its departure from 1 within x{RECOVERED[0]:g}-{RECOVERED[1]:g})")
