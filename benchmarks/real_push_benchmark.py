@@ -17,6 +17,8 @@ push is held out once and scored by what was fitted on the others. Columns:
   drake_ps     Drake with the pressure_distribution effect: the support footprint's scale (`support_scale`,
                bridge/sim/support.py) chosen on the training folds from a grid (--support-grid; every push is
                replayed once per grid value, then each fold picks the value of least training E)
+  drake_an     Drake with the anisotropic_friction effect (bridge/sim/anisotropy.py): anisotropy a along one of
+               --aniso-directions grains, chosen on the training folds from a grid (--aniso-grid), as drake_ps
 
 Scores per held-out push: final-pose error (mm, deg: the last observation) and the paper's trajectory error
 e_t (mm), e_R (deg) over the observed track (`bridge.rollout.compare`, eq. 1-4). Median and p90 per shape and
@@ -26,6 +28,7 @@ over all pushes; one table; JSON in benchmarks/results/real_push.json.
     python benchmarks/real_push_benchmark.py --quick --shapes ellip1 rect1
     python benchmarks/real_push_benchmark.py --drake-fit ellip1    # all shapes, Drake also fitted on ellip1's folds
     python benchmarks/real_push_benchmark.py --support-grid 0.5 0.6 0.7 0.8 0.9 1.1 1.2   # drake_ps
+    python benchmarks/real_push_benchmark.py --aniso-grid 0.15 0.3                        # drake_an
 """
 from __future__ import annotations
 
@@ -56,7 +59,7 @@ from bridge.rollout.limit_surface import (fit_pusher_friction, push_residuals, p
 from bridge.rollout.rollout import Job  # noqa: E402
 from bridge.sim.friction import combined_friction  # noqa: E402
 
-COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps")
+COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an")
 METRICS = ("final_mm", "final_deg", "e_t_mm", "e_R_deg")
 MAX_FOLDS = 5
 ROD = "pusher/pusher_rod"
@@ -78,6 +81,9 @@ def main(argv=None) -> None:
     parser.add_argument("--drake-fit-iterations", type=int, default=4, help="LM iterations per fold (default 4)")
     parser.add_argument("--support-grid", nargs="*", type=float, default=None, metavar="SCALE",
                         help="the drake_ps column: support footprint scales to try (1 is always tried)")
+    parser.add_argument("--aniso-grid", nargs="*", type=float, default=None, metavar="A",
+                        help="the drake_an column: anisotropies a to try, each along --aniso-directions grains")
+    parser.add_argument("--aniso-directions", type=int, default=4, help="grain directions over 180 deg (default 4)")
     parser.add_argument("--json", default=str(REPO / "benchmarks" / "results" / "real_push.json"))
     args = parser.parse_args(argv)
     if args.trials is not None and args.trials < 1:
@@ -97,7 +103,7 @@ def main(argv=None) -> None:
             shape_started = time.perf_counter()
             trials = load_trials(paths, odb)
             drake_fit = args.drake_fit is not None and (not args.drake_fit or shape in args.drake_fit)
-            shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations, args.support_grid)
+            shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations, grid_models(args))
             rows.extend(dict(r, shape=shape) for r in shape_rows)
             print(f"{shape}: {len(trials)} pushes, {time.perf_counter() - shape_started:.0f} s", flush=True)
     summary = summarise(rows)
@@ -108,7 +114,7 @@ def main(argv=None) -> None:
         "data": "MIT planar pushing, Yu et al. IROS 2016 (arXiv:1604.04038), shared subset train/",
         "mode": "quick" if args.quick else "full", "per_shape": per_shape, "drake_fit": args.drake_fit,
         "drake_fit_iterations": iterations if args.drake_fit is not None else None, "folds": f"min({MAX_FOLDS}, n)",
-        "support_grid": args.support_grid,
+        "support_grid": args.support_grid, "aniso_grid": args.aniso_grid,
         "machine": platform.platform(), "total_s": round(time.perf_counter() - started, 1),
         "summary": summary, "fits": fits, "trials": rows}, indent=1) + "\n")
     print(f"wrote {out} ({time.perf_counter() - started:.0f} s)")
@@ -144,18 +150,34 @@ def scores(rows: list[np.ndarray]) -> dict[str, float]:
             "e_t_mm": 1e3 * error.e_t, "e_R_deg": math.degrees(error.e_R), "e_mm": 1e3 * error.e}
 
 
-def support_grid(trials, pushed, odb, executor, grid: list[float]) -> dict[float, list[list[np.ndarray] | None]]:
-    """Each push's residuals replayed at each footprint scale (None where the replay failed)."""
+def grid_models(args) -> dict[str, dict[str, tuple]]:
+    """Per grid column, its models by label: settings on the pushed object ("{obj}" stands for its name)."""
+    grids = {}
+    if args.support_grid is not None:
+        grids["drake_ps"] = {f"{v:g}": (("support_scale", v),) for v in sorted({1.0, *args.support_grid})}
+    if args.aniso_grid is not None:
+        models = {"0": ()}
+        for a in args.aniso_grid:
+            for deg in range(0, 180, 180 // args.aniso_directions):
+                t = math.radians(deg)
+                models[f"{a:g}@{deg}"] = (("aniso_c", a * math.cos(2 * t)), ("aniso_s", a * math.sin(2 * t)))
+        grids["drake_an"] = models
+    return grids
+
+
+def replay_grid(trials, pushed, odb, executor, models: dict[str, tuple]) -> dict[str, list]:
+    """Each push's residuals replayed under each model of a grid (None where the replay failed)."""
     out = {}
-    for scale in grid:
-        jobs = [Job(trial_rollout(t, (Setting("support_scale", p.name, scale),), odb), sim_options(t))
+    for label, settings in models.items():
+        jobs = [Job(trial_rollout(t, tuple(Setting(k, p.name, v) for k, v in settings), odb), sim_options(t))
                 for t, p in zip(trials, pushed)]
-        out[scale] = [None if o.failed else residuals_of(t, o.result, odb) for t, o in zip(trials, executor.run(jobs))]
+        out[label] = [None if o.failed else residuals_of(t, o.result, odb) for t, o in zip(trials, executor.run(jobs))]
+        print(f"  {label}: {len(jobs)} replays", flush=True)
     return out
 
 
 def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
-              grid: list[float] | None = None) -> tuple[list[dict], dict]:
+              grids: dict[str, dict[str, tuple]] | None = None) -> tuple[list[dict], dict]:
     pushed = [pushed_object(t, odb) for t in trials]
     mu_s0, mu_p0 = nominal_friction(trials[0], odb, pushed[0])
     k = min(MAX_FOLDS, len(trials))
@@ -171,7 +193,7 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
         row["mu_s_from_force"] = surface_friction_from_force(trial, p, push)
     fold_fits = []
     spec = parse_params(DRAKE_FIT_PARAMS, "real_push_benchmark Drake friction")
-    by_scale = support_grid(trials, pushed, odb, executor, sorted({1.0, *grid})) if grid is not None else None
+    replayed = {column: replay_grid(trials, pushed, odb, executor, models) for column, models in (grids or {}).items()}
     for f, held in enumerate(folds):
         train = [i for i in range(len(trials)) if i not in held]
         if not train:  # one push: nothing to fit on
@@ -201,23 +223,22 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
             entry.update(drake_values=dict(result.values), drake_train_e_mm=[1e3 * result.before.e, 1e3 * result.after.e],
                          drake_simulations=result.simulations, drake_wall_s=round(time.perf_counter() - started, 1))
             print(f"  fold {f}: Drake fit {entry['drake_values']} in {entry['drake_wall_s']:.0f} s", flush=True)
-        if by_scale is not None:  # the scale of least training E (the paper's, over every training sample)
-            def training_e(scale: float) -> float:
-                got = [by_scale[scale][i] for i in train]
+        for column, by_model in replayed.items():  # the grid's model of least training E (the paper's E)
+            def training_e(label: str) -> float:
+                got = [by_model[label][i] for i in train]
                 if any(g is None for g in got):
                     return math.inf
                 return float(np.linalg.norm(least_squares_vector([r for g in got for r in g])))
-            best = min(by_scale, key=training_e)
-            entry.update(support_scale=best, support_train_e_mm={str(k): 1e3 * training_e(k) for k in by_scale})
+            best = min(by_model, key=training_e)
+            entry[column] = {"chosen": best, "train_e_mm": {k: 1e3 * training_e(k) for k in by_model}}
             for i in held:
-                rows[i]["drake_ps"] = None if by_scale[best][i] is None else scores(by_scale[best][i])
+                rows[i][column] = None if by_model[best][i] is None else scores(by_model[best][i])
         fold_fits.append(entry)
-    curve = None
-    if by_scale is not None:  # every push at each scale (not held out: how the error depends on the scale)
-        curve = {str(k): {m: float(np.median([scores(r)[m] for r in v if r is not None])) for m in METRICS}
-                 for k, v in by_scale.items()}
+    curves = {column: {k: {m: float(np.median([scores(r)[m] for r in v if r is not None])) for m in METRICS}
+                       for k, v in by_model.items()}  # every push under each model (not held out)
+              for column, by_model in replayed.items()}
     return rows, {"nominal_mu_s": mu_s0, "nominal_mu_p": mu_p0, "c_m": pushed[0].surface.c,
-                  "mass_kg": pushed[0].mass, "folds": fold_fits, "support_curve": curve}
+                  "mass_kg": pushed[0].mass, "folds": fold_fits, "curves": curves}
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -255,8 +276,9 @@ def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
         line = (f"{shape:<8} c = {fit['c_m'] * 1e3:.1f} mm, nominal mu_s {fit['nominal_mu_s']:.2f} mu_p "
                 f"{fit['nominal_mu_p']:.2f}; fitted mu_p {', '.join(f'{v:.2f}' for v in mu_p) or '-'}; mu_s "
                 f"{', '.join(f'{v:.2f}' for v in mu_s) or 'no trusted force'}; mu_p with c x factor {with_c or '-'}")
-        if any("support_scale" in f for f in fit["folds"]):
-            line += "; support scale " + ", ".join(f"{f['support_scale']:.2f}" for f in fit["folds"])
+        for column in ("drake_ps", "drake_an"):
+            if any(column in f for f in fit["folds"]):
+                line += f"; {column} " + ", ".join(f[column]["chosen"] for f in fit["folds"] if column in f)
         if any("drake_values" in f for f in fit["folds"]):
             line += "; Drake " + "; ".join(", ".join(f"{k.split('[')[1][:-1]} {v:.2f}" for k, v in f["drake_values"].items())
                                            for f in fit["folds"] if "drake_values" in f)

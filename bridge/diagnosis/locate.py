@@ -317,6 +317,7 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
              for R in (s.R, sim_R)]
     f["turn_ratio"] = turns[0] / turns[1] if abs(turns[1]) > max(TURN_LEVEL, 5.0 * sigma["yaw"]) else None
     f["final_along"] = float(comps["along"][-1] / sigma["along"])
+    f["final_across"] = float(comps["across"][-1] / sigma["across"])
     peak = float(np.max(np.abs(comps["along"]))) or 1.0
     f["transient"] = float(1.0 - abs(comps["along"][-1]) / peak)
     world_res = np.column_stack([comps["along"] * d[0] - comps["across"] * d[1],

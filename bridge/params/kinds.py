@@ -36,10 +36,12 @@ from ..odb.ranges import DISSIPATION, FRICTION, HYDROELASTIC_MODULUS, MASS, Phys
 from ..rollout.rollout import Rollout
 from ..sim.extras import SurfacePatch, WeldedShape
 from ..sim.shapes import mass_properties
+from ..sim.anisotropy import AnisotropicFriction
+from ..sim.friction import combined_friction
 from ..sim.support import SupportPressure
 from ..values import Pose
 from ..world import WorldState
-from .surfaces import footprint_half, movable_objects, supported_by, surface_top
+from .surfaces import footprint_half, movable_objects, support_of, supported_by, surface_top
 
 TYPE_PREFIX = "type:"
 G = 9.81
@@ -764,6 +766,61 @@ class SupportY(_SupportOffset):
     doc = "where an object's weight rests: the centre of pressure's offset from the footprint's centroid, object y"
 
 
+class Anisotropy(Family):
+    """The object's friction on its support made direction-dependent (`bridge.sim.anisotropy`): a coefficient
+    ellipse around the pair's isotropic coefficient (as the scene values have it); a new scene per value."""
+
+    name = "anisotropic_friction"
+    members = {"a_c": "aniso_c", "a_s": "aniso_s"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        a_c, a_s = values.get("a_c", 0.0), values.get("a_s", 0.0)
+        world = rollout.world
+        surface = support_of(world, odb, target)
+        if (a_c == 0.0 and a_s == 0.0) or surface is None:
+            return rollout
+
+        def mu(name: str) -> float:
+            set_ = rollout.values.objects.get(name)
+            return set_.friction if set_ is not None and set_.friction is not None else \
+                odb.get(world.objects[name].type).physics.friction
+
+        return rollout.with_extras(AnisotropicFriction(target, float(a_c), float(a_s),
+                                                       combined_friction(mu(target), mu(surface)),
+                                                       surface_top(world, odb, surface)))
+
+
+class _AnisotropyComponent(_Member):
+    null_is_world = True
+    family, targets = Anisotropy, "free objects"
+    physical = PhysicalRange(-0.9, 0.9, "", "the coefficient along the grain over the isotropic one, less 1: at 1 the "
+                             "coefficient across the grain would vanish")
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return -0.6, 0.6
+
+    def step(self, world, odb, target):
+        return 0.1
+
+    def negligible(self, world, odb, target):
+        return 0.03
+
+
+class AnisoC(_AnisotropyComponent):
+    name, component = "aniso_c", "a_c"
+    doc = ("anisotropic friction on the support: a cos 2 theta, where the coefficient is mu (1 + a) along the "
+           "world direction theta and mu (1 - a) across it")
+
+
+class AnisoS(_AnisotropyComponent):
+    name, component = "aniso_s", "a_s"
+    doc = "anisotropic friction on the support: a sin 2 theta (see aniso_c)"
+
+
 # --- the registry -------------------------------------------------------------------------------------------
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Friction(), DynamicFriction(), Dissipation(), HydroelasticModulus(),
@@ -773,6 +830,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     ObstacleX(), ObstacleY(),
     PatchCx(), PatchCy(), PatchHalf(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
+    AnisoC(), AnisoS(),
 )}
 
 

@@ -402,6 +402,26 @@ def add_robot(plant, world: WorldState, odb: ObjectDatabase):
     return instance, spec
 
 
+def _slip_friction(builder, plant, world: WorldState, odb: ObjectDatabase, config: SimConfig, bodies: dict,
+                   extras: Sequence):
+    """The system adding anisotropic friction (`sim/anisotropy.py`) for the extras that ask for it, or None."""
+    from .anisotropy import AnisotropicFriction, SlipFriction, footprint_points
+    from .support import bottom_polygon
+
+    wanted = [e for e in extras if isinstance(e, AnisotropicFriction)]
+    if not wanted:
+        return None
+    entries = []
+    for extra in wanted:
+        obj_type = odb.get(world.objects[extra.object].type)
+        polygon, z0, _ = bottom_polygon(obj_type, contact_mode(obj_type, config)[1])
+        points, weights = footprint_points(polygon)
+        entries.append((extra, bodies[extra.object], points, weights, z0))
+    slip = builder.AddSystem(SlipFriction(plant, entries))
+    builder.Connect(plant.get_state_output_port(), slip.get_input_port(0))
+    return slip
+
+
 def build_scene(world: WorldState, odb: ObjectDatabase, config: SimConfig = SimConfig(),
                 extras: Sequence = (), meshcat=None) -> Scene:
     """Assemble the diagram in a fixed order: plant and scene graph, objects, robot, extras, sources. Drake's own
@@ -446,7 +466,16 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
         builder.Connect(desired.get_output_port(), plant.get_desired_state_input_port(instance))
     if bodies:
         forces = builder.AddSystem(ConstantForces(list(bodies.items())))
-        builder.Connect(forces.get_output_port(), plant.get_applied_spatial_force_input_port())
+        slip = _slip_friction(builder, plant, world, odb, config, bodies, extras)
+        if slip is None:
+            builder.Connect(forces.get_output_port(), plant.get_applied_spatial_force_input_port())
+        else:  # Drake fact: one applied-force input port; several sources meet in a multiplexer
+            from pydrake.multibody.plant import ExternallyAppliedSpatialForceMultiplexer
+
+            mux = builder.AddSystem(ExternallyAppliedSpatialForceMultiplexer(2))
+            builder.Connect(forces.get_output_port(), mux.get_input_port(0))
+            builder.Connect(slip.get_output_port(), mux.get_input_port(1))
+            builder.Connect(mux.get_output_port(), plant.get_applied_spatial_force_input_port())
     if meshcat is not None:
         from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
 

@@ -11,29 +11,28 @@ from bridge.diagnosis.effects import Evidence, get_effect  # noqa: E402
 from bridge.errors import SceneError  # noqa: E402
 from bridge.params.model import Setting, apply_model  # noqa: E402
 from bridge.params.kinds import kind_named  # noqa: E402
-from bridge.prove.scenes import design_pushes, nominal_world, scene_spec  # noqa: E402
-from bridge.recording.telemetry import Telemetry  # noqa: E402
-from bridge.rollout.rollout import Rollout, run_rollout  # noqa: E402
-from bridge.sim.simulate import SimOptions  # noqa: E402
+from bridge.rollout.rollout import run_rollout  # noqa: E402
 from bridge.sim.support import SupportPressure, bottom_polygon, gyration_radius  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def push(odb):
-    """A push that turns the block by ~45 deg, its rollout in the proof's planar scene."""
-    spec = scene_spec("planar", odb)
-    p = design_pushes(spec, odb, np.random.default_rng(3), 1)[0]
-    return Rollout(nominal_world(spec, odb, p.start), Telemetry(p.times, ("pusher_x", "pusher_y"), p.path))
+def push(block_pushes):
+    """A push that turns the block by ~45 deg."""
+    return block_pushes[0]
 
 
-def turn_and_travel(rollout, odb):
-    r = run_rollout(rollout, odb, SimOptions(sample_rate=50.0, end=float(rollout.telemetry.times[-1])))
-    q = r.tracks["block"][:, 3:7]
-    yaw = np.unwrap(2 * np.arctan2(q[:, 3], q[:, 0]))
-    return math.degrees(yaw[-1] - yaw[0]), float(np.linalg.norm(r.tracks["block"][-1, :2] - r.tracks["block"][0, :2]))
+@pytest.fixture(scope="module")
+def turn_and_travel(block_track):
+    def measure(rollout, odb):
+        track = block_track(rollout)
+        q = track[:, 3:7]
+        yaw = np.unwrap(2 * np.arctan2(q[:, 3], q[:, 0]))
+        return math.degrees(yaw[-1] - yaw[0]), float(np.linalg.norm(track[-1, :2] - track[0, :2]))
+
+    return measure
 
 
-def test_a_concentrated_footprint_turns_a_push_more_and_a_wide_one_less(push, odb):
+def test_a_concentrated_footprint_turns_a_push_more_and_a_wide_one_less(push, odb, turn_and_travel):
     own = turn_and_travel(push, odb)
     same = turn_and_travel(push.with_extras(SupportPressure("block", 1.0)), odb)
     small = turn_and_travel(push.with_extras(SupportPressure("block", 0.6)), odb)
@@ -45,7 +44,7 @@ def test_a_concentrated_footprint_turns_a_push_more_and_a_wide_one_less(push, od
     assert small[0] > own[0] * 1.1 and 0 < wide[0] < own[0] * 0.95
 
 
-def test_a_disc_of_the_same_radius_of_gyration_turns_it_about_alike(push, odb):
+def test_a_disc_of_the_same_radius_of_gyration_turns_it_about_alike(push, odb, turn_and_travel):
     """Why the proof may conceal the effect as a disc: what a push sees is the footprint's radius of gyration."""
     poly, _, _ = bottom_polygon(odb.get("steel_block"), 16)
     radius = math.sqrt(2) * 0.6 * gyration_radius(poly)

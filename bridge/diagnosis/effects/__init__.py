@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from ...errors import DiagnosisError
 from ...params import KINDS
+from .anisotropic_friction import AnisotropicFrictionEffect
 from .base import Effect, Evidence, Recovery, Truth, pname
 from .com_offset import ComOffset
 from .friction import Friction
@@ -34,6 +35,7 @@ EFFECTS: dict[str, Effect] = {
     "pusher_offset": PusherOffset(),
     "hidden_obstacle": HiddenObstacle(),
     "pressure_distribution": PressureDistribution(),
+    "anisotropic_friction": AnisotropicFrictionEffect(),
 }
 
 __all__ = ["EFFECTS", "Effect", "Evidence", "Recovery", "Truth", "get_effect", "pname", "register_effect"]
