@@ -181,6 +181,37 @@ def load_push(path: str | os.PathLike, *, max_duration: float | None = None,
         start_time=float(times[0]), repairs=tuple(repairs))
 
 
+def save_push(path: str | os.PathLike, tip_pose: np.ndarray, object_pose: np.ndarray,
+              ft_wrench: np.ndarray | None = None, *, shape: str | None = None) -> Path:
+    """Write a push in the dataset's format: `tip_pose`, `object_pose` and (when given) `ft_wrench`, each N x 4
+    ``[unix time s, a, b, c]`` as `load_push` reads them; `shape` becomes the root's `shape` attribute (for a file
+    whose name does not follow the dataset's pattern). Written to a temporary file beside `path`, then renamed:
+    a reader never sees half a file."""
+    import h5py
+
+    path = Path(path)
+    if shape is not None and not _SHAPE.match(shape):
+        raise RecordingError(f"shape must be a name like 'rect1', got {shape!r}", source=str(path))
+    streams = {"tip_pose": tip_pose, "object_pose": object_pose, "ft_wrench": ft_wrench}
+    for name, array in streams.items():
+        if array is not None and (np.ndim(array) != 2 or np.shape(array)[1] != 4):
+            raise RecordingError(f"expected N x 4 [{', '.join(_COLUMNS[name])}], got shape {np.shape(array)}",
+                                 source=str(path), field=name)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with h5py.File(temporary, "w") as handle:
+            for name, array in streams.items():
+                if array is not None:
+                    handle.create_dataset(name, data=np.asarray(array, dtype=float))
+            if shape is not None:
+                handle.attrs["shape"] = shape
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+    return path
+
+
 def _read_streams(path: Path) -> tuple[dict[str, np.ndarray], str | None]:
     """The streams, and the root's `shape` attribute (None when absent)."""
     import h5py  # local: only this reader needs it

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -35,7 +34,8 @@ from scipy.optimize import least_squares
 
 from ..errors import LimitSurfaceError, RecordingError
 from ..odb import ObjectDatabase
-from ..recording.mitpush import PUSHER_RADIUS, load_outline
+from ..recording.mitpush import PUSHER_RADIUS
+from ..sim.prisms import outline_of
 from ..sim.prisms import centroid, signed_area
 from ..sim.simulate import ReplayResult
 from .compare import DEFAULT_C, PoseError, error_of_residuals, least_squares_vector, observed_residuals
@@ -262,7 +262,7 @@ class PushedObject:
 
 
 def pushed_object(trial: Trial, odb: ObjectDatabase, *, thickness: float = 0.0128) -> PushedObject:
-    """The observed free object of a planar push and its outline (`mitpush.load_outline` of its mesh's dataset);
+    """The observed free object of a planar push and its outline (`prisms.outline_of` its geometry);
     the trial's world already holds the frame yaw (`load_trials`)."""
     moving = [tr.object for tr in trial.observations if tr.object in trial.world.objects
               and not odb.get(trial.world.objects[tr.object].type).fixed]
@@ -272,11 +272,10 @@ def pushed_object(trial: Trial, odb: ObjectDatabase, *, thickness: float = 0.012
     name = moving[0]
     state = trial.world.objects[name]
     kind = odb.get(state.type)
-    mesh = kind.geometry.mesh if kind.geometry is not None else None
-    if mesh is None:
-        raise RecordingError(f"object {name!r} (type {state.type}) has no mesh, so no outline for the limit "
-                             "surface", source=str(trial.source))
-    outline = load_outline(state.type, Path(mesh).parent.parent)
+    outline = outline_of(kind.geometry) if kind.geometry is not None else None
+    if outline is None:
+        raise RecordingError(f"object {name!r} (type {state.type}) is no prism (a box, a cylinder or an extruded "
+                             "outline mesh), so it has no outline for the limit surface", source=str(trial.source))
     surface = limit_surface_of(outline, source=f"{state.type} outline")
     density = kind.physics.density
     mass = float(kind.physics.mass) if kind.physics.mass is not None else float(density) * surface.area * thickness

@@ -121,7 +121,7 @@ def _expand(paths: Iterable[str | os.PathLike]) -> list[Path]:
 
 
 def _frame_yaws(pushes, odb: ObjectDatabase, given: Mapping[str, float]) -> dict[str, float]:
-    from ..recording.mitpush import estimate_frame_yaw, load_outline
+    from ..recording.mitpush import estimate_frame_yaw
 
     by_shape = defaultdict(list)
     for push in pushes:
@@ -131,12 +131,21 @@ def _frame_yaws(pushes, odb: ObjectDatabase, given: Mapping[str, float]) -> dict
         if shape in given:
             yaws[shape] = float(given[shape])
             continue
-        geometry = odb.types[shape].geometry if shape in odb.types else None
-        if geometry is None or geometry.mesh is None:
+        outline = shape_outline(shape, odb)
+        if outline is None:
             yaws[shape] = 0.0  # push_session reports the missing type or dataset
             continue
-        yaws[shape] = estimate_frame_yaw(group, load_outline(shape, geometry.mesh.parent.parent))
+        yaws[shape] = estimate_frame_yaw(group, outline)
     return yaws
+
+
+def shape_outline(shape: str, odb: ObjectDatabase):
+    """The outline of a shape type (`prisms.outline_of`), None when the type is unknown, its mesh is not available
+    or it is no prism."""
+    from ..sim.prisms import outline_of
+
+    geometry = odb.types[shape].geometry if shape in odb.types else None
+    return None if geometry is None else outline_of(geometry)
 
 
 def _push_trial(push, odb: ObjectDatabase, frame_yaw: float, observation_rate: float | None, *,
@@ -145,7 +154,8 @@ def _push_trial(push, odb: ObjectDatabase, frame_yaw: float, observation_rate: f
     from ..recording.mitsession import OBSERVATION_RATE, push_session
 
     session = push_session(push, odb, frame_yaw=frame_yaw,
-                           observation_rate=OBSERVATION_RATE if observation_rate is None else observation_rate)
+                           observation_rate=OBSERVATION_RATE if observation_rate is None else observation_rate,
+                           outline=shape_outline(push.spec.shape, odb))
     notes = list(session.notes)
     adjustments: list[Adjustment] = [session.start] if session.start is not None else []
     if frame_yaw:

@@ -68,6 +68,28 @@ def mesh_prism(path: Path, scale: float) -> Prism | None:
     return Prism(bottom, z0, z1)
 
 
+def outline_of(geometry) -> np.ndarray | None:
+    """The outline (n, 2, counter-clockwise, object frame) of an object that is a prism (`Geometry` of the object
+    database): what a planar pusher meets, for start clearances and frame checks. A box's rectangle, a
+    cylinder's 64-gon, a mesh's bottom loop (`mesh_prism`; the dataset's own ``<mesh>_ext.npy`` beside it when
+    there is one), as it is: a non-convex outline stays non-convex. None for a shape that is no prism."""
+    if geometry.shape == "box":
+        hx, hy = geometry.size[0] / 2, geometry.size[1] / 2
+        return np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
+    if geometry.shape == "cylinder":
+        angles = np.linspace(0.0, 2 * math.pi, 64, endpoint=False)
+        return geometry.size[0] * np.column_stack([np.cos(angles), np.sin(angles)])
+    if geometry.shape != "mesh" or geometry.mesh is None:
+        return None
+    own = geometry.mesh.with_name(geometry.mesh.stem + "_ext.npy")
+    if own.is_file():
+        from ..recording.mitpush import load_outline
+
+        return np.asarray(load_outline(geometry.mesh.stem, geometry.mesh.parent.parent)) * geometry.scale
+    prism = mesh_prism(geometry.mesh, geometry.scale)
+    return None if prism is None else np.array(prism.outline)
+
+
 @lru_cache(maxsize=64)
 def contact_outlines(path: Path, scale: float, hull: bool, vertices: int) -> tuple[np.ndarray | None, np.ndarray | None]:
     """(the outline that needs a mesh of its own, the footprint) of a mesh prism: the outline when it is not convex
