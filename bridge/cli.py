@@ -221,6 +221,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = add("prove")
     p.add_argument("--size", choices=("small", "full"), default="small", help="small: one case per effect (CI); "
                    "full: three magnitudes, two seeds (default: %(default)s)")
+    p.add_argument("--world", choices=("matched", "mismatched", "both"), default="both",
+                   help="matched: recordings made by the diagnosis' own model; mismatched: worlds that differ from it "
+                   "beneath the effect (contact, time step, servo, sensors, frictions; full size needs the MIT "
+                   "dataset's meshes); both, reported side by side (default: %(default)s)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder for the generated recordings and proof.json")
     p.add_argument("--workers", type=positive_int, default=None, help="worker processes (default: up to 2)")
     _time_limit_arg(p, "start no further case: proof.json covers the cases done")

@@ -482,7 +482,8 @@ def prove(args) -> int:
     _claim(args, folders=[args.out])
     progress = Progress("case", time_limit=args.time_limit)
     try:
-        proof = run_proof(args.out, _odb(args), size=args.size, workers=args.workers, log=progress.write,
+        proof = run_proof(args.out, _odb(args), size=args.size, world=args.world, workers=args.workers,
+                          log=progress.write,
                           progress=progress, time_limit=args.time_limit)
     finally:
         progress.close()

@@ -35,6 +35,7 @@ from ..params.surfaces import support_of
 from ..rollout.compare import PoseError
 from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
+from .crossval import Prediction, predict_left_out, prediction
 from .loader import LoaderEvidence, raw_offsets, read_adjustments
 from .locate import Localisation, locate
 from .runs import Runner, chi2_of
@@ -45,7 +46,8 @@ NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise 
 MIN_GAIN = 0.2  # share of the simpler model's excess chi^2 that extra parameters must remove
 NEAR_NOISE_GAIN = 0.5  # the same when the simpler model is within NOISE_RMS of the noise floor: what is left there
 #                        is as likely the start poses' error (read from noisy observations) as missing physics
-HELD_OUT_EXCESS_GAIN = 0.5  # share of the held-out excess chi^2 a model must remove to pass on the whole
+CV_GAIN = 0.25  # share of the ordinary model's cross-validated excess chi^2 an effect must remove
+CV_LOSS = 0.5  # what an effect may lose on the recordings it predicts worse, as a share of what it gains
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
 
 
@@ -96,6 +98,8 @@ class Scored:
     evaluations: int = 0
     model_std: dict[str, float] = field(default_factory=dict)  # 1 sigma of every fitted parameter of the model
     at_bound: dict[str, float] = field(default_factory=dict)  # fitted parameters a bound stopped: the bound
+    cv: Prediction | None = None  # every recording predicted by the model fitted without it (`crossval`)
+    cv_share: float | None = None  # of the floor's cross-validated excess chi^2, the share this model removes
 
     @property
     def rms(self) -> float:
@@ -119,6 +123,11 @@ class Scored:
             out["derived"] = {k: float(f"{v:.4g}") for k, v in self.derived.items()}
         if self.at_bound:
             out["at_bound"] = {k: float(f"{v:.6g}") for k, v in self.at_bound.items()}
+        if self.cv is not None and self.cv.n:
+            out["cv"] = {"rms_sigma": round(math.sqrt(self.cv.chi2 / self.cv.n), 3), "recordings": len(self.cv.each),
+                         "excess_reduction": round(self.cv_share, 4) if self.cv_share is not None else None,
+                         "rms_sigma_each": {k: round(math.sqrt(c / n), 3) if n else None
+                                            for k, (c, n) in self.cv.each.items()}}
         return out
 
 
@@ -138,6 +147,7 @@ class Identification:
     stopped: str | None = None  # "time limit": the search was cut short, the verdict is over what was tried
     loader: LoaderEvidence | None = None  # what the loader changed in each recording, read as evidence
     rollouts: dict[str, int] = field(default_factory=dict)  # {simulated, cached}: of `simulations`, run and cached
+    floor: str | None = None  # the ordinary model every effect was cross-validated against (None: no cross-validation)
 
     @property
     def partial(self) -> bool:
@@ -203,15 +213,15 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     # what the loader changed, as evidence: a rod that started inside the object is a calibration offset's mark
     order = list(train) + list(held_out)
     loader = read_adjustments([runner.prepared[i] for i in order], range(len(train), len(order)))
-    if loader.sentence():
-        notes.append(loader.sentence())
-        say(notes[-1])
+    for sentence in loader.sentences():
+        notes.append(sentence)
+        say(sentence)
     train_names = _names(runner, train)
     ranked_objects = [name for name, excess in loc.objects_ranked() if excess > 0] or \
         [o for o, _ in loc.objects_ranked()]
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
                         loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
-                        loader.offset_estimate(), loader.mean_shift(train_names))
+                        loader.offset_estimate(), loader.mean_shift(train_names), loader.offset_evident)
     none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
@@ -283,6 +293,12 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                 y, c2 = screen(ev, space, best)
                 if c2 < chi2:
                     x, chi2 = y, c2
+        elif friction_params:
+            # the best seed with the friction coefficients moved to suit it (a heavier object pushes back harder
+            # with less friction); the seed's own values stay (no useful gradient there)
+            y, c2 = screen(ev, space, x, free=range(len(friction_params)))
+            if c2 < chi2:
+                x, chi2 = y, c2
         screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x))))
         say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}")
         advance()
@@ -326,7 +342,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
             say(f"friction refitted from {c.effect}'s coefficients: {_fmt(base_fit.values())}, "
                 f"rms {fitted[1].rms:.1f}")
         fitted.append(scored)
-        ok = _acceptable(scored, fitted[0], fitted[1], bool(held_out), world, odb) is None
+        ok = _fit_reason(scored, fitted[0], fitted[1], world, odb) is None
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
             f"{'' if ok else ' - not confirmed'}" + (" (cut short by the time limit)" if result.stopped else ""))
         fits_done += 1
@@ -341,9 +357,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         say(notes[-1])
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
     scored = _score(fitted, tau)
-    verdict, check = _verdict(scored, bool(held_out), world, odb)
+    scored, fits = _cross_validate(runner, ev, scored, fits, loc, _names(runner, held_out), world, odb)
+    verdict, check, floor = _verdict(scored, world, odb)
     if check:
         notes.append(check)
+    scored = _rank(scored, verdict, floor)
     scored = _winner_uncertainty(ev, scored, verdict, fits)
     raw = {k[len("raw "):-len(" mm")]: v for k, v in next(s for s in scored if s.effect == verdict).derived.items()
            if k.startswith("raw ") and k.endswith(" mm")}
@@ -356,7 +374,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                      f"{runner.failures[0][0]}: {runner.failures[0][1]})")
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
-                          held_loc, stopped, loader, rollouts())
+                          held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None)
 
 
 def _winner_uncertainty(ev: Evaluator, scored: list[Scored], verdict: str, fits: dict) -> list[Scored]:
@@ -454,82 +472,126 @@ def _held_out(runner: Runner, held_out: Sequence[int], scored: list[Scored]) -> 
     return out
 
 
-def _held_out_ok(s: Scored, simpler: Sequence[Scored]) -> bool:
-    """Better than every simpler model on held-out recordings, in one of two ways:
-    - on a typical one: the mean over held-out recordings of the chi^2 ratio (model / simpler) is below 1. A ratio,
-      not the sum, so that one recording whose outcome tips over at the slightest change (a push near a corner)
-      cannot decide alone. Each chi^2 is floored at the recording's noise level (its number of samples) first: a
-      recording at the noise floor under both models is a tie, not a loss for the model that moved it from 0.5 to
-      0.9 noise floors. Ratios are clipped to [1/4, 4];
-    - on the whole: the simpler model leaves the held-out recordings clearly above the noise (rms > NOISE_RMS) and
-      this model removes at least HELD_OUT_EXCESS_GAIN of that excess (chi^2 above the noise floor, summed over the
-      recordings). A model that explains one held-out push from 500 noise floors down to 50 while a quiet one
-      rises to 10 generalises, even if the typical ratio says otherwise.
-    When the held-out recordings sit at the noise floor under the simpler models they cannot tell, and it is
-    enough that the model keeps them there."""
-    if s.held_out_chi2 is None or not s.held_out_n:
-        return False
-    if all(_typical_ratio(s.held_out_each, b.held_out_each) < 1.0 or _explains_held_out(s, b) for b in simpler):
-        return True
-    quiet = all(b.held_out_chi2 <= NOISE_RMS ** 2 * b.held_out_n for b in simpler)
-    return quiet and s.held_out_chi2 <= NOISE_RMS ** 2 * s.held_out_n
-
-
-def _explains_held_out(s: Scored, simpler: Scored) -> bool:
-    def excess(m: Scored) -> float:
-        return sum(max(c - n, 0.0) for c, n in m.held_out_each)
-
-    loud = simpler.held_out_chi2 > NOISE_RMS ** 2 * simpler.held_out_n
-    return loud and excess(s) <= (1.0 - HELD_OUT_EXCESS_GAIN) * excess(simpler)
-
-
-def _typical_ratio(model: Sequence[tuple[float, int]], simpler: Sequence[tuple[float, int]]) -> float:
-    ratios = [min(4.0, max(0.25, max(a, n) / max(b, n, 1e-12))) for (a, n), (b, _) in zip(model, simpler)]
-    return float(np.mean(ratios)) if ratios else 1.0
-
-
-def _acceptable(s: Scored, none: Scored, friction: Scored | None, checked: bool, world, odb) -> str | None:
-    """Why `s` is not accepted over the simpler model it extends, or None when it is (see `_verdict`)."""
+def _fit_reason(s: Scored, none: Scored, friction: Scored | None, world, odb) -> str | None:
+    """Why `s` is not worth its parameters on the recordings it was fitted on (None: it is), see `_verdict`."""
     if s.at_bound:
         return (f"{s.effect}'s fit ended on the bound of {_fmt(s.at_bound)} and asks for more: the recordings want "
                 f"values outside the physical range, so this model does not describe them (not a finding)")
     if s.effect not in ("none", "friction") and get_effect(s.effect).negligible(world, odb, s.target, s.params):
         return f"{s.effect}'s parameters ({_fmt(s.params)}) are too small to matter physically"
-    simpler = [none] if s.effect == "friction" or friction is None else [none, friction]
-    base = simpler[-1]
+    base = none if s.effect == "friction" or friction is None else friction
     excess = max(base.chi2 - base.n, 0.0)
     if base.chi2 - s.chi2 < (MIN_GAIN if base.rms >= NOISE_RMS else NEAR_NOISE_GAIN) * excess:
         return (f"{s.effect} removes only {100 * (base.chi2 - s.chi2) / max(excess, 1e-12):.0f} % of the residual "
                 f"above the noise that {base.effect} leaves")
-    if checked and not _held_out_ok(s, simpler):
-        return f"{s.effect} does not lower the held-out error below {' and '.join(b.effect for b in simpler)}"
     return None
 
 
-def _verdict(scored: list[Scored], checked: bool, world, odb) -> tuple[str, str | None]:
-    """The best-scoring model that is also worth its parameters in practice and confirmed on held-out data.
+def _cv_reason(s: Scored, floor: Scored) -> str | None:
+    """Why `s` does not predict unseen recordings better than `floor` (None: it does), see `_verdict`."""
+    if floor.cv is None:
+        return None  # nothing to cross-validate on (one recording): the fit's criteria alone decide
+    if s.cv is None:
+        return f"{s.effect} was not cross-validated (its fit is not worth its parameters against {floor.effect})"
+    share, gains, losses = s.cv.compare(floor.cv)
+    if floor.cv.excess() <= 0.0:
+        return f"{floor.effect} already predicts every recording it was not fitted on to the noise floor"
+    if share < CV_GAIN:
+        return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
+                f"fitted on (cross-validated; at least {100 * CV_GAIN:.0f} % needed)")
+    if losses > CV_LOSS * gains:
+        return (f"{s.effect} predicts some recordings worse than {floor.effect} (it loses {losses / gains:.0%} of "
+                f"what it gains on the others, cross-validated; at most {CV_LOSS:.0%})")
+    return None
 
-    Models are nested: `friction` adds the friction coefficients to `none`, every effect adds its own parameters
-    to `friction`. A model is accepted over the simpler one it extends when
+
+def _acceptable(s: Scored, none: Scored, friction: Scored | None, world, odb) -> str | None:
+    """Why `s` is not accepted over the ordinary model (None when it is), see `_verdict`."""
+    why = _fit_reason(s, none, friction, world, odb)
+    if why is not None:
+        return why
+    floor = none if s.effect == "friction" or friction is None else friction
+    return _cv_reason(s, floor)
+
+
+def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]:
+    """The model that predicts the recordings it was not fitted on best, among those worth their parameters.
+
+    The floor is the ordinary model: `friction` (the friction coefficients fitted) when it is accepted over
+    `none`, else `none`. An effect (its parameters fitted together with the friction coefficients) is accepted
+    when
     - no parameter of its fit was stopped by a bound (`FitResult.at_bound`: the data ask for a value outside the
       physical range, so the model family is wrong and the value on the bound is no finding);
     - its own parameters are not all negligible (`Effect.negligible`: e.g. a centre of mass moved by less than
       a millimetre only soaks up the error of the start poses);
-    - its extra parameters remove at least MIN_GAIN of the simpler model's excess chi^2 (chi^2 - n: the part
-      above the noise floor), NEAR_NOISE_GAIN when the simpler model is already within NOISE_RMS of the floor;
-      BIC alone trusts the noise model, and a residual that is not quite white makes any extra parameter look
-      decisive over thousands of samples;
-    - on held-out recordings (when there are any) it lowers the chi^2 below the simpler models' on a typical
-      recording (mean clipped ratio, `_held_out_ok`), or keeps them at the noise floor when they are there
-      already and so cannot tell.
+    - on the recordings it was fitted on, its extra parameters remove at least MIN_GAIN of the ordinary model's
+      chi^2 above the noise floor (NEAR_NOISE_GAIN when that model is already within NOISE_RMS of the floor);
+    - cross-validated (`crossval`: every recording predicted by the model fitted without it), it removes at
+      least CV_GAIN of the chi^2 above the noise that the floor leaves on those predictions, and what it loses
+      on the recordings it predicts worse is at most CV_LOSS of what it gains on the others.
+    The verdict is the accepted effect with the smallest cross-validated chi^2, else the floor. `friction` is
+    accepted over `none` by the same rules.
     """
     by = {s.effect: s for s in scored if s.effect in ("none", "friction")}
+    none, friction = by["none"], by.get("friction")
     reasons = []
-    for s in scored:
-        if s.effect == "none" or s.score <= 0:
-            break
-        why = _acceptable(s, by["none"], by.get("friction"), checked, world, odb)
+    floor = none
+    if friction is not None:
+        why = _acceptable(friction, none, None, world, odb)
         if why is None:
-            return s.effect, ("; ".join(reasons) + f"; {s.effect} is") if reasons else None
-        reasons.append(why)
-    return "none", ("; ".join(reasons) + "; no effect of the catalog is confirmed") if reasons else None
+            floor = friction
+        else:
+            reasons.append(why)
+    effects = [s for s in scored if s.effect not in ("none", "friction")]
+    accepted = []
+    for s in effects:
+        why = _acceptable(s, none, friction if floor is friction else None, world, odb)
+        if why is None:
+            accepted.append(s)
+        else:
+            reasons.append(why)
+    if accepted:
+        best = min(accepted, key=lambda m: (m.cv.excess() if m.cv is not None else -m.score))
+        return best.effect, ("; ".join(reasons) + f"; {best.effect} is") if reasons else None, floor
+    tail = "no effect of the catalog is confirmed" + ("" if floor is none else ", the fitted friction is the model")
+    return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
+
+
+def _rank(scored: list[Scored], verdict: str, floor: Scored) -> list[Scored]:
+    """The verdict first, then the others by their cross-validated chi^2 (their score without one); each with
+    the share of the floor's cross-validated excess it removes."""
+    from dataclasses import replace
+
+    def key(s: Scored) -> tuple:
+        return (s.effect != verdict, s.cv is None, s.cv.excess() if s.cv is not None else -s.score)
+    shared = [replace(s, cv_share=s.cv.compare(floor.cv)[0]) if s.cv is not None and floor.cv is not None else s
+              for s in scored]
+    return sorted(shared, key=key)
+
+
+def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: dict, loc: Localisation,
+                    held_names: Sequence[str], world, odb) -> tuple[list[Scored], dict]:
+    """Every model worth its parameters on the fitted recordings (and `none`, `friction`) predicts each recording
+    it was not fitted on (`crossval`): the held-out ones from its fit, each fitted one from its fit without it.
+    Nothing is cross-validated with a single recording. Returns the models with `cv` and the fits (those
+    cross-validated with their Jacobian differenced at the optimum, reused for the uncertainty)."""
+    from dataclasses import replace
+
+    if len(ev.indices) + len(held_names) < 2:
+        return scored, fits
+    by = {s.effect: s for s in scored if s.effect in ("none", "friction")}
+    none, friction = by["none"], by.get("friction")
+    out = []
+    for s in scored:
+        key = ("friction", None) if s.effect == "friction" else (s.effect, s.target)
+        held = [(name, c, n) for name, (c, n) in zip(held_names, s.held_out_each)]
+        if s.effect == "none":
+            runs = list(loc.runs) if len(ev.indices) > 1 else []
+        elif key in fits and _fit_reason(s, none, friction, world, odb) is None:
+            fit_result, runs = predict_left_out(runner, ev, fits[key]) if len(ev.indices) > 1 else (fits[key], [])
+            fits = {**fits, key: fit_result}
+        else:
+            out.append(s)
+            continue
+        out.append(replace(s, cv=prediction(runs, held)))
+    return out, fits

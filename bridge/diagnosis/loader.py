@@ -34,6 +34,53 @@ from ..recording.adjustments import Adjustment, StartClearance
 from .runs import Prepared
 
 NOISE_SIGMAS = 3.0  # one-sided: 0.13 % false alarms per recording under Gaussian noise
+NEGLIGIBLE = 5e-4  # m: a rod offset or an outline error below this changes nothing a user would act on (the
+#                    negligible size of `joint_offset` for a prismatic joint, bridge.params.kinds)
+
+
+@dataclass(frozen=True)
+class ContactFit:
+    """What the rod-to-outline gaps while pushing say (`LoaderEvidence.contact_fit`): a constant offset D of the
+    recorded rod (true = recorded + D, m, in the joints' x-y order) and an inflation s of the outline (m, > 0:
+    the real object, or rod, is larger than modelled), from gap_r = -n_r . D + s over the recordings (least
+    squares); their 1-sigma from the fit's leftover scatter (at least the typical scatter within a push); the gaps'
+    RMS before and after."""
+
+    joints: tuple[str, str]
+    offset: tuple[float, float]
+    inflation: float
+    offset_cov: tuple[tuple[float, float], tuple[float, float]]
+    inflation_sd: float
+    rms_before: float
+    rms_after: float
+    count: int
+
+    @property
+    def offset_size(self) -> float:
+        return float(np.hypot(*self.offset))
+
+    def offset_sigmas(self) -> float:
+        """How many standard deviations D lies from zero (its Mahalanobis length)."""
+        D = np.array(self.offset)
+        return float(math.sqrt(max(0.0, D @ np.linalg.pinv(np.array(self.offset_cov)) @ D)))
+
+    @property
+    def offset_evident(self) -> bool:
+        return self.offset_sigmas() > NOISE_SIGMAS and self.offset_size > NEGLIGIBLE
+
+    @property
+    def inflation_evident(self) -> bool:
+        return abs(self.inflation) > NOISE_SIGMAS * self.inflation_sd and abs(self.inflation) > NEGLIGIBLE
+
+    def to_json(self) -> dict[str, Any]:
+        return {"offset_m": {j: _g(v) for j, v in zip(self.joints, self.offset)}, "offset_sigmas": _g(self.offset_sigmas()),
+                "offset_evident": self.offset_evident, "inflation_m": _g(self.inflation),
+                "inflation_sd_m": _g(self.inflation_sd), "inflation_evident": self.inflation_evident,
+                "gap_rms_m": [_g(self.rms_before), _g(self.rms_after)], "recordings": self.count}
+
+
+def _g(value: float) -> float:
+    return float(f"{value:.4g}")
 
 
 @dataclass(frozen=True)
@@ -79,10 +126,38 @@ class LoaderEvidence:
                 out[joint] = out.get(joint, 0.0) + value / len(chosen)
         return out
 
+    def contact_fit(self) -> ContactFit | None:
+        """The offset and inflation the contact gaps of every recording imply (`ContactFit`); None with fewer than
+        three recordings that pushed (three unknowns)."""
+        rows = [r for r in self.readings if r.start.contact_gap is not None and r.start.contact_normal is not None]
+        if len(rows) < 3:
+            return None
+        A = np.array([[-r.start.contact_normal[0], -r.start.contact_normal[1], 1.0] for r in rows])
+        b = np.array([r.start.contact_gap for r in rows])
+        x, *_ = np.linalg.lstsq(A, b, rcond=None)
+        left = b - A @ x
+        spread = float(np.median([r.start.contact_spread or 0.0 for r in rows]))
+        var = max(float(left @ left) / max(1, len(rows) - 3), spread ** 2, 1e-12)
+        cov = var * np.linalg.pinv(A.T @ A)
+        return ContactFit(rows[0].start.joints, (float(x[0]), float(x[1])), float(x[2]),
+                          ((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
+                          float(math.sqrt(max(cov[2, 2], 0.0))), float(np.sqrt(np.mean(b ** 2))),
+                          float(np.sqrt(np.mean(left ** 2))), len(rows))
+
+    @property
+    def offset_evident(self) -> bool:
+        """Some recording started inside beyond its threshold, or the contact gaps imply an offset (`ContactFit`)."""
+        fit = self.contact_fit()
+        return bool(self.inside) or (fit is not None and fit.offset_evident)
+
     def offset_estimate(self) -> dict[str, float] | None:
-        """The calibration offset D (m per joint, true = recorded + D) that explains the penetrations of the
-        recordings that started inside: least squares of n_r . D = depth_r (minimum norm, so a direction no
-        normal sees stays at zero). None when none started inside."""
+        """The calibration offset D (m per joint, true = recorded + D): the contact gaps' when they make it evident
+        (`ContactFit`: every recording that pushed, not only those that started inside), else the one that
+        explains the penetrations of the recordings that started inside (least squares of n_r . D = depth_r,
+        minimum norm, so a direction no normal sees stays at zero). None when neither shows one."""
+        fit = self.contact_fit()
+        if fit is not None and fit.offset_evident:
+            return {joint: float(v) for joint, v in zip(fit.joints, fit.offset)}
         inside = self.inside
         if not inside:
             return None
@@ -90,6 +165,24 @@ class LoaderEvidence:
         depths = np.array([r.start.penetration for r in inside])
         d = np.linalg.lstsq(normals, depths, rcond=None)[0]
         return {joint: float(v) for joint, v in zip(inside[0].start.joints, d)}
+
+    def sentences(self) -> list[str]:
+        """The report's lines: rods that started inside, a rod offset or an outline error the contact gaps show."""
+        out = [self.sentence()] if self.sentence() else []
+        fit = self.contact_fit()
+        if fit is not None and fit.offset_evident:
+            D = np.array(fit.offset) * 1e3
+            out.append(f"while it pushed, the recorded rod sat off the object's outline by a constant offset: the real "
+                       f"rod was at recorded + ({D[0]:+.1f}, {D[1]:+.1f}) mm ({fit.offset_sigmas():.0f} sigma, from "
+                       f"{fit.count} recordings; the gap's RMS falls from {fit.rms_before * 1e3:.1f} to "
+                       f"{fit.rms_after * 1e3:.1f} mm once it is removed): evidence of a pusher calibration offset")
+        if fit is not None and fit.inflation_evident:
+            side = "outside" if fit.inflation > 0 else "inside"
+            out.append(f"on every side the rod pushed {abs(fit.inflation) * 1e3:.1f} mm {side} the object's outline "
+                       f"(+- {fit.inflation_sd * 1e3:.1f} mm): the object model is suspect (the real object, or the "
+                       f"rod, is {'larger' if fit.inflation > 0 else 'smaller'} than modelled, its outline is "
+                       f"wrong, or the contact is {'stiffer' if fit.inflation > 0 else 'softer'} than modelled)")
+        return out
 
     def sentence(self) -> str | None:
         """The report's line when rods started inside beyond their thresholds, else None."""
@@ -123,6 +216,8 @@ class LoaderEvidence:
                                      "offset_estimate_m": ({k: float(f"{v:.4g}") for k, v in offset.items()}
                                                            if offset else None),
                                      "sentence": self.sentence()}}
+        fit = self.contact_fit()
+        evidence["contact"] = None if fit is None else {**fit.to_json(), "sentences": self.sentences()[bool(inside):]}
         return {"adjustments": recordings, "evidence": evidence}
 
 

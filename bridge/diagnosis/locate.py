@@ -32,6 +32,8 @@ SMOOTH = 3  # samples in the moving average
 SIGNIFICANT = 2.0  # RMS of the normalised residual above which a (recording, object) carries a mismatch
 QUIET_MOTION = 0.001  # m: before the object has moved this far (observed and simulated) the residual is "quiet"
 TURN_LEVEL = math.radians(3.0)  # a simulated turn below this (or 5 noise floors of yaw) gives no turn ratio
+JAM_RATIO = 2.5  # a recorded force this many times the simulated one and the push's typical force is a jam ...
+JAM_HOLD = 3  # ... when it lasts this many samples (at the residual rate: 0.12 s at 25 Hz)
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,6 +98,7 @@ class LocatedForce:
     n: int
     scale: float | None
     sigma: float  # N
+    jam_s: float | None = None  # when the recorded force first jammed (`locate_force`), None if it never did
 
     @property
     def rms(self) -> float:
@@ -107,7 +110,7 @@ class LocatedForce:
 
     def to_json(self) -> dict[str, Any]:
         return {"recording": self.recording, "rms_sigma": round(self.rms, 3), "significant": self.significant,
-                "scale": _round(self.scale, 3), "noise_N": float(f"{self.sigma:.3g}")}
+                "scale": _round(self.scale, 3), "noise_N": float(f"{self.sigma:.3g}"), "jam_s": _round(self.jam_s, 3)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -172,24 +175,52 @@ def locate(runner: Runner, indices: Sequence[int] | None = None, model=()) -> Lo
         p = runner.prepared[i]
         if run.failed is not None:
             continue
+        force = locate_force(p, run) if p.force is not None and run.force_residual is not None else None
         for s in p.series:
-            located.append(locate_object(p, s, run, runner.odb))
-        if p.force is not None and run.force_residual is not None:
-            forces.append(locate_force(p, run))
+            located.append(locate_object(p, s, run, runner.odb, force.jam_s if force is not None else None))
+        if force is not None:
+            forces.append(force)
     return Localisation(tuple(located), tuple(runs), tuple(forces))
 
 
 def locate_force(p: Prepared, run: Run) -> LocatedForce:
+    """How far the recorded force is off, by what factor while both push, and when it jammed (`_jam`)."""
     obs = p.force
     m = obs.measured
     observed = np.linalg.norm(obs.force[:, m], axis=1)
     simulated = np.linalg.norm((obs.force - run.force_residual)[:, m], axis=1)
-    pushing = (observed > 5 * float(np.mean(obs.sigma[m]))) & (simulated > 5 * float(np.mean(obs.sigma[m])))
+    floor = 5 * float(np.mean(obs.sigma[m]))
+    pushing = (observed > floor) & (simulated > floor)
     scale = float(np.mean(observed[pushing]) / np.mean(simulated[pushing])) if pushing.sum() >= 3 else None
-    return LocatedForce(p.name, run.force_chi2, run.force_n, scale, float(np.mean(obs.sigma[m])))
+    return LocatedForce(p.name, run.force_chi2, run.force_n, scale, float(np.mean(obs.sigma[m])),
+                        _jam(p, observed, simulated, floor))
 
 
-def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase) -> LocatedObject:
+def _jam(p: Prepared, observed: np.ndarray, simulated: np.ndarray, floor: float) -> float | None:
+    """When the robot first jammed: its recorded force JAM_RATIO times what the model pushes with (the larger of
+    the simulated force then and its median while pushing) while the real object stands still (slower than a
+    fifth of its median speed while moving), for JAM_HOLD samples in a row. Something the model lacks holds the
+    object back (an obstacle in its way): the recorded rod stops with it, so the poses hardly show it, the
+    force does. The start of a push (an impact, the object not yet moving) is no jam: the object must have moved
+    before."""
+    moving = simulated > floor
+    if moving.sum() < 3 or not p.series:
+        return None
+    s = p.series[0]
+    speed = np.linalg.norm(np.gradient(s.xyz[:, :2], s.times, axis=0), axis=1)
+    speed = np.interp(p.force.times, s.times, speed)
+    travelled = np.interp(p.force.times, s.times, np.linalg.norm(s.xyz[:, :2] - s.xyz[0, :2], axis=1))
+    fast = speed > 0.2 * float(np.median(speed[moving])) if np.any(speed[moving] > 0) else np.zeros(len(speed), bool)
+    push = float(np.median(simulated[moving]))
+    jammed = (observed > JAM_RATIO * np.maximum(simulated, push)) & ~fast & (travelled > 0.002)
+    for k in range(len(jammed) - JAM_HOLD + 1):
+        if jammed[k:k + JAM_HOLD].all():
+            return float(p.force.times[k])
+    return None
+
+
+def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase,
+                  jam_s: float | None = None) -> LocatedObject:
     r = run.residuals[s.object]
     sim_xyz, sim_R = sample_track(run.sim_times, run.tracks[s.object], s.times)
     d = _push_direction(s, sim_xyz)
@@ -220,6 +251,12 @@ def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase)
     contact, contact_s = _contact_before(run, s.object, onset)
     error = pose_error_arrays(s.xyz, s.R, sim_xyz, sim_R)
     features = _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_xyz, sim_R, d, odb)
+    if jam_s is not None:  # where the object was when the robot's force jammed, and how far it reached ahead
+        k = int(np.clip(np.searchsorted(s.times, jam_s), 0, len(s.times) - 1))
+        geometry = odb.get(p.world.objects[s.object].type).geometry
+        pose = Pose(tuple(s.xyz[k]), rotation_to_quat(s.R[k]))
+        features.update(jam_s=jam_s, jam_xy_obs=tuple(float(v) for v in s.xyz[k, :2]),
+                        jam_reach=float(support(geometry, pose, np.array([d[0], d[1], 0.0])) - float(s.xyz[k, :2] @ d)))
     return LocatedObject(p.name, s.object, s.times, comps, sigma, measured, (float(d[0]), float(d[1])), quiet_level,
                          onset, contact, contact_s, push, chi2, n,
                          {"e_t": error.e_t, "e_R": error.e_R, "e": error.e}, features, sim_xyz[:, :2], s.xyz[:, :2])

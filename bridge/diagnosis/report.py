@@ -9,7 +9,7 @@ from typing import Any, BinaryIO, Mapping, Sequence
 import numpy as np
 
 from ..files import Content, write_set
-from .identify import Identification, _error_json
+from .identify import CV_GAIN, CV_LOSS, Identification, _error_json
 from .locate import Localisation, LocatedObject
 
 SCHEMA_PATH = Path(__file__).with_name("diagnosis.schema.json")
@@ -58,6 +58,8 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
                     "recordings": [[n, float(f"{v:.4g}")] for n, v in ident.localisation.recordings_ranked()]},
         "recordings": {"train": list(ident.train), "held_out": list(ident.held_out)},
         "noise": dict(noise or noise_summary(ident.localisation)),
+        "cross_validation": ({"floor": ident.floor, "recordings": len(ident.train) + len(ident.held_out),
+                              "cv_gain": CV_GAIN, "cv_loss": CV_LOSS} if ident.floor is not None else None),
         "correlation_time": round(ident.tau, 3),
         "scene_file": scene_file,
         "simulation_failures": dict(failures or {"count": 0, "first": []}),
@@ -142,12 +144,21 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
         if key in e:
             v = e[key]
             lines.append(f"| {label} | {v['e_t'] * 1e3:.2f} | {math.degrees(v['e_R']):.2f} | {v['e']:.5f} |")
-    lines += ["", "## Effects (best first)", "",
-              "| effect | target | score | k | rms/sigma | held-out e | parameters |", "|---|---|---|---|---|---|---|"]
+    lines += ["", "## Effects (the verdict first, then by cross-validated prediction)", ""]
+    if ident.floor is not None:
+        lines += [f"Each recording is predicted by the model fitted without it (cross-validation); an effect must "
+                  f"remove at least {100 * CV_GAIN:.0f} % of what the ordinary model (`{ident.floor}`) leaves on "
+                  f"those predictions above the noise floor, and lose on the recordings it predicts worse at most "
+                  f"{100 * CV_LOSS:.0f} % of what it gains on the others.", ""]
+    lines += ["| effect | target | score | k | rms/sigma | cross-validated rms/sigma | of the floor's excess | "
+              "held-out e | parameters |", "|---|---|---|---|---|---|---|---|---|"]
     for s in ident.ranked:
         held = f"{s.held_out_error.e:.5f}" if s.held_out_error is not None else "-"
         params = ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items())
-        lines.append(f"| {s.effect} | {s.target} | {s.score:.1f} | {s.k} | {s.rms:.2f} | {held} | {params} |")
+        cv = f"{math.sqrt(s.cv.chi2 / s.cv.n):.2f}" if s.cv is not None and s.cv.n else "-"
+        share = f"{-100 * s.cv_share:+.0f} %" if s.cv_share is not None else "-"
+        lines.append(f"| {s.effect} | {s.target} | {s.score:.1f} | {s.k} | {s.rms:.2f} | {cv} | {share} | {held} | "
+                     f"{params} |")
     lines += ["", "## Where the mismatch is", "", "```", ident.localisation.text(), "```", ""]
     lines += loader_markdown(data)
     noise = data["noise"]
@@ -174,13 +185,15 @@ def loader_markdown(data: Mapping[str, Any]) -> list[str]:
             else:
                 continue
             rows.append(f"| {entry['recording']} | {a['kind']} | {what} |")
-    if not rows:
-        return []
     evidence = (data.get("evidence") or {}).get("start_inside") or {}
-    lines = ["## What the loader changed", ""]
-    if evidence.get("sentence"):
-        lines += [f"**{evidence['sentence'][0].upper()}{evidence['sentence'][1:]}.**", ""]
-    return lines + ["| recording | adjustment | what |", "|---|---|---|", *rows, ""]
+    sentences = ([evidence["sentence"]] if evidence.get("sentence") else []) + \
+        list(((data.get("evidence") or {}).get("contact") or {}).get("sentences") or ())
+    if not rows and not sentences:
+        return []
+    lines = ["## What the loader changed, and what the recordings say before any simulation", ""]
+    for sentence in sentences:
+        lines += [f"**{sentence[0].upper()}{sentence[1:]}.**", ""]
+    return lines + (["| recording | adjustment | what |", "|---|---|---|", *rows, ""] if rows else [])
 
 
 # --- plots ------------------------------------------------------------------------------------------------------

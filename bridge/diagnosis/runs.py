@@ -150,17 +150,23 @@ class Runner:
     def run_many(self, models: Sequence[Model], indices: Sequence[int], *, tracks: bool = False,
                  contacts: bool = False) -> list[list[Run]]:
         """runs[m][k]: model m on trial indices[k], one batch on the executor."""
-        tasks = [(tuple(m), i) for m in models for i in indices]
-        outcomes = self.executor.run([self.job(m, i, contacts) for m, i in tasks])
-        self.simulations += len(tasks)
+        runs = self.run_pairs([(tuple(m), i) for m in models for i in indices], tracks=tracks, contacts=contacts)
+        k = len(indices)
+        return [runs[m * k:(m + 1) * k] for m in range(len(models))]
+
+    def run_pairs(self, pairs: Sequence[tuple[Model, int]], *, tracks: bool = False,
+                  contacts: bool = False) -> list[Run]:
+        """Each (model, trial index) of `pairs`, one batch on the executor (a model per recording is what
+        cross-validation asks: each recording predicted by the model fitted without it)."""
+        outcomes = self.executor.run([self.job(m, i, contacts) for m, i in pairs])
+        self.simulations += len(pairs)
         runs = []
-        for (_, i), outcome in zip(tasks, outcomes):
+        for (_, i), outcome in zip(pairs, outcomes):
             if outcome.failed:
                 self.failures.append((self.prepared[i].name, outcome.failure))
             runs.append(run_of(self.prepared[i], outcome, tracks))
         self.wall += sum(r.wall for r in runs)
-        k = len(indices)
-        return [runs[m * k:(m + 1) * k] for m in range(len(models))]
+        return runs
 
     def run(self, model: Model, indices: Sequence[int], *, tracks: bool = False, contacts: bool = False) -> list[Run]:
         return self.run_many([model], indices, tracks=tracks, contacts=contacts)[0]

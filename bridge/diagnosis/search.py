@@ -165,10 +165,29 @@ def differenced(ev: Evaluator, result: FitResult) -> FitResult:
                    differenced=True)
 
 
-def screen(ev: Evaluator, space: ParameterSet, x0: np.ndarray) -> tuple[np.ndarray, float]:
-    """One bounded Gauss-Newton step from x0 (a cheap screen, `bridge.optim.lm.gauss_newton_step`)."""
+def screen(ev: Evaluator, space: ParameterSet, x0: np.ndarray, free: Sequence[int] | None = None
+           ) -> tuple[np.ndarray, float]:
+    """One bounded Gauss-Newton step from x0 (a cheap screen, `bridge.optim.lm.gauss_newton_step`), in the
+    coordinates `free` only (default: all; the others stay at x0's)."""
     lower, upper = space.normal_bounds()
-    return gauss_newton_step(ev.residuals(space), np.asarray(x0, dtype=float), lower, upper)
+    x0 = np.asarray(x0, dtype=float)
+    if free is None:
+        return gauss_newton_step(ev.residuals(space), x0, lower, upper)
+    free = list(free)
+    batch = ev.residuals(space)
+
+    def residuals(ys: Sequence[np.ndarray]) -> list[np.ndarray]:
+        points = []
+        for y in ys:
+            x = x0.copy()
+            x[free] = y
+            points.append(x)
+        return batch(points)
+
+    y, chi2 = gauss_newton_step(residuals, x0[free], lower[free], upper[free])
+    x = x0.copy()
+    x[free] = y
+    return x, chi2
 
 
 # --- errors and evidence --------------------------------------------------------------------------------------

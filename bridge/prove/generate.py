@@ -22,6 +22,7 @@ truth of each case is written beside the recordings (truth.json), never inside t
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,7 @@ from ..diagnosis.effects import Truth, get_effect
 from ..files import dump_yaml, write_atomic
 from ..odb import ObjectDatabase
 from ..recording.forces import ObservedForce
+from ..recording.mitpush import save_push
 from ..recording.observations import ObservedPoses, ObservedTrack
 from ..recording.recording import save_recording
 from ..recording.telemetry import Telemetry
@@ -38,6 +40,7 @@ from ..rollout.rollout import Rollout, run_rollout
 from ..sim.simulate import SimOptions
 from ..values import Pose
 from ..world import world_to_dict
+from .mismatch import Mismatch, Sensors, draw_mismatch
 from .scenes import (MAGNITUDES, NOISE_FORCE, NOISE_POSITION, NOISE_ROTATION, OBS_RATE, Case, SceneSpec, design_pushes,
                      nominal_world, scene_spec)
 
@@ -50,36 +53,58 @@ def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.
 
 
 def noisy_track(obj: str, times: np.ndarray, track: np.ndarray, rng: np.random.Generator,
-                noise: tuple[float, float]) -> ObservedTrack:
+                noise: tuple[float, float] | Sensors) -> ObservedTrack:
+    """The track as a motion-capture system reports it: white `noise` (position, rotation sigma) or `Sensors`."""
+    if isinstance(noise, Sensors):
+        dxyz, drot = noise.pose_noise(times, rng)
+    else:
+        draws = [(rng.normal(0.0, noise[0], 3), rng.normal(0.0, noise[1], 3)) for _ in track]
+        dxyz, drot = np.array([d[0] for d in draws]).reshape(-1, 3), np.array([d[1] for d in draws]).reshape(-1, 3)
     poses = []
-    for row in track:
-        xyz = row[:3] + rng.normal(0.0, noise[0], 3)
-        R = Rotation.from_rotvec(rng.normal(0.0, noise[1], 3)) * Rotation.from_quat(row[[4, 5, 6, 3]])
+    for row, e_p, e_r in zip(track, dxyz, drot):
+        R = Rotation.from_rotvec(e_r) * Rotation.from_quat(row[[4, 5, 6, 3]])
         q = R.as_quat()
-        poses.append(Pose(tuple(xyz), (q[3], q[0], q[1], q[2])))
+        poses.append(Pose(tuple(row[:3] + e_p), (q[3], q[0], q[1], q[2])))
     return ObservedTrack(obj, times, tuple(poses))
 
 
 def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
                   noise: tuple[float, float] = (NOISE_POSITION, NOISE_ROTATION),
                   force_noise: float | None = NOISE_FORCE) -> tuple[list[Path], Truth]:
-    """Write `n` recording folders under `folder` (rec_00, ...) with `case`'s effect concealed; truth.json beside.
-    `force_noise` None leaves the rod's force sensor out (poses only)."""
-    spec = scene_spec(case.scene, odb)
+    """Write `n` recordings under `folder` with `case`'s effect concealed, truth.json beside them: recording
+    folders (rec_00, ...) or, in a scene recorded as the MIT pushing dataset records (`mit_<shape>`), h5 files
+    (rec_00.h5, ...). A case in a mismatched world (`case.world`) draws its `Mismatch` after the effect's truth
+    and applies it beneath the effect. `force_noise` None leaves the rod's force sensor out (poses only)."""
+    mismatched = case.world == "mismatched"
+    spec = scene_spec(case.scene, odb, varied=mismatched)
     rng = np.random.default_rng(case.seed)
     truth = case_truth(case, spec, odb, rng)
+    mismatch = Mismatch()
+    if mismatched:
+        mismatch = draw_mismatch(rng, odb, spec.object_type, spec.surface_type, frictions=case.effect != "friction")
+    else:
+        mismatch = replace(mismatch, sensors=Sensors(position=noise[0], rotation=noise[1], force=force_noise or 0.0))
     effect = get_effect(case.effect)
     paths = []
-    for k, push in enumerate(design_pushes(spec, odb, rng, n)):
+    for k, push in enumerate(design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local)):
         exact = Rollout(nominal_world(spec, odb, push.start), Telemetry(push.times, ("pusher_x", "pusher_y"), push.path),
                         name=f"{case.name}/rec_{k:02d}")
+        if mismatched:
+            exact = mismatch.apply(exact, spec.object, spec.surface, odb)
         true, recorded = effect.conceal(truth, spec, odb, exact)
+        if spec.recorder == "mit":
+            paths.append(_write_mit_push(folder / f"rec_{k:02d}.h5", spec, odb, effect, truth, true, exact, mismatch,
+                                         rng, with_force=force_noise is not None,
+                                         transformed=recorded is not true.telemetry))
+            continue
         result = run_rollout(true, odb, SimOptions(sample_rate=OBS_RATE, end=float(push.times[-1]), robot_force=True))
         times, force = result.times, result.robot_force
-        observed = noisy_track(spec.object, times, result.tracks[spec.object], rng, noise)
+        observed = noisy_track(spec.object, times, result.tracks[spec.object], rng,
+                               noise if not mismatched else mismatch.sensors)
         sensed = None
         if force_noise is not None:  # a planar force sensor on the rod: fx, fy
-            planar = force[:, :2] + rng.normal(0.0, force_noise, (len(times), 2))
+            sensors = mismatch.sensors
+            planar = sensors.force_gain * force[:, :2] + rng.normal(0.0, sensors.force, (len(times), 2))
             sensed = ObservedForce(times, np.column_stack([planar, np.zeros(len(times))]))
         first = observed.poses[:5]
         x = float(np.mean([p.xyz[0] for p in first]))
@@ -91,5 +116,49 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
                        ObservedPoses((observed,)), {"name": f"{case.scene}_rec_{k:02d}", "robot": "planar_pusher"},
                        force=sensed, overwrite=True)
         paths.append(path)
+    if mismatched:  # the world's differences belong to the truth: a clean world whose frictions moved is `friction`
+        truth = replace(truth, extra={**truth.extra, "mismatch": mismatch.to_json()})
     write_atomic(folder / "truth.json", json.dumps({"case": case.name, **truth.to_json()}, indent=2))
     return paths, truth
+
+
+MIT_RATE = 250.0  # Hz of the MIT pushing dataset's streams
+UNIX_START = 1.46e9  # s: the recordings' clock starts somewhere in 2016, as the dataset's
+
+
+def _write_mit_push(path: Path, spec: SceneSpec, odb: ObjectDatabase, effect, truth: Truth, true: Rollout,
+                    exact: Rollout, mismatch: Mismatch, rng: np.random.Generator, *, with_force: bool,
+                    transformed: bool) -> Path:
+    """One push as the MIT dataset records it: the rod where its encoders say it is (the simulated joints, so a
+    servo that lags its command is recorded as it moved; a base mounted off is not seen), the object's pose from
+    motion capture (x, y, yaw with the sensors' noise) and the force on the rod (fx, fy, with noise and gain),
+    250 Hz on a unix clock. When the effect's recorder does not read the joints as they are (`transformed`: a
+    clock that stamps late), its `conceal` is applied to the measured joints."""
+    end = float(true.telemetry.times[-1])
+    result = run_rollout(true, odb, SimOptions(sample_rate=MIT_RATE, end=end, robot_force=with_force,
+                                               joint_track=True))
+    times = result.times
+    columns = [result.joint_names.index(j) for j in ("pusher_x", "pusher_y")]
+    measured = Telemetry(times, ("pusher_x", "pusher_y"), result.joint_track[:, columns])
+    tip = measured.positions
+    if transformed:
+        _, recorded = effect.conceal(truth, spec, odb, exact.with_telemetry(measured))
+        tip = recorded.sample(times)
+    sensors = mismatch.sensors
+    dxyz, drot = sensors.pose_noise(times, rng)
+    track = result.tracks[spec.object]
+    yaw = np.array([Rotation.from_quat(row[[4, 5, 6, 3]]).as_euler("zyx")[0] for row in track]) + drot[:, 2]
+    clock = UNIX_START + rng.uniform(0.0, 3.0e7) + times
+    stamps = clock.copy()
+    if sensors.jitter > 0:  # a few pose timestamps stepped back, as in 20 of the dataset's 50 files
+        late = np.nonzero(rng.random(len(stamps)) < sensors.jitter)[0]
+        late = late[(late > 0) & (late < len(stamps) - 1)]
+        stamps[late] = stamps[late - 1] - rng.uniform(2e-4, 1.5e-3, len(late))
+    zeros = np.zeros(len(times))
+    object_pose = np.column_stack([stamps, track[:, 0] + dxyz[:, 0], track[:, 1] + dxyz[:, 1], np.unwrap(yaw)])
+    tip_pose = np.column_stack([clock, tip[:, 0], tip[:, 1], zeros])
+    wrench = None
+    if with_force:
+        planar = sensors.force_gain * result.robot_force[:, :2] + rng.normal(0.0, sensors.force, (len(times), 2))
+        wrench = np.column_stack([clock, planar, zeros])
+    return save_push(path, tip_pose, object_pose, wrench, shape=spec.object_type)

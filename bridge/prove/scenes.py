@@ -8,7 +8,7 @@ surface at the first observed x, y, yaw.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import DiagnosisError
 from ..names import build_name_map
 from ..odb import ObjectDatabase
-from ..odb.geometry import half_extents
+from ..odb.geometry import half_extents, z_range
 from ..values import Fact, Pose
 from ..world import ObjectState, RobotState, WorldState
 
@@ -38,14 +38,16 @@ TABLETOP_EFFECTS = ("com_offset", "hidden_obstacle")
 class Case:
     """One concealed effect (or `none`) in one scene, at one magnitude, with a seed for everything random."""
 
-    scene: str  # "planar" | "tabletop"
+    scene: str  # "planar" | "tabletop" | "mit_<shape>"
     effect: str
     magnitude: str = "medium"
     seed: int = 0
+    world: str = "matched"  # "mismatched": the world differs from the model beneath the effect (`prove.mismatch`)
 
     @property
     def name(self) -> str:
-        return f"{self.scene}-{self.effect}-{self.magnitude}-{self.seed}"
+        name = f"{self.scene}-{self.effect}-{self.magnitude}-{self.seed}"
+        return name if self.world == "matched" else f"{name}-mismatched"
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,9 +72,42 @@ class SceneSpec:
     spread: tuple[float, float]  # +- x, y of the start
     others: tuple[tuple[str, str, tuple[float, float, float]], ...] = ()  # bystanders (name, type, xyz)
     robot: str = "pusher"
+    recorder: str = "folder"  # "folder": bridge recording folders; "mit": h5 files of the MIT pushing dataset's format
+    varied: bool = False  # effects concealed by mechanisms of varied geometry (the mismatched-world proof)
+
+    @property
+    def planar(self) -> bool:
+        """A planar push of an object on a plate (not the arm's tabletop)."""
+        return self.name != "tabletop"
 
 
-def scene_spec(scene: str, odb: ObjectDatabase) -> SceneSpec:
+MIT_PREFIX = "mit_"  # scene "mit_<shape>": the shape pushed on the plate, recorded as MIT pushing h5 files
+
+
+def scene_spec(scene: str, odb: ObjectDatabase, *, varied: bool = False) -> SceneSpec:
+    """The proof scene named `scene`: "planar", "tabletop", or "mit_<shape>" (a shape of the object database's
+    MIT pushing types, in the world `bridge.recording.mitsession` builds for an MIT push: the plate's top at
+    z = 0, the rod at the shape's mid-height)."""
+    spec = _scene_spec(scene, odb)
+    return replace(spec, varied=varied) if varied else spec
+
+
+def _scene_spec(scene: str, odb: ObjectDatabase) -> SceneSpec:
+    if scene.startswith(MIT_PREFIX):
+        from ..recording.mitsession import ROBOT_NAME, SHAPE_TYPE, SURFACE_NAME, SURFACE_TYPE
+
+        shape = scene[len(MIT_PREFIX):]
+        if shape not in odb.types or not odb.get(shape).is_a(SHAPE_TYPE) or odb.get(shape).abstract:
+            raise DiagnosisError(f"proof scene {scene!r}: {shape!r} is not a shape of the MIT pushing types "
+                                 "(odb/types/mit_push.yaml, proof.yaml)")
+        geometry = odb.get(shape).geometry
+        if geometry.shape == "mesh" and geometry.mesh is None:
+            raise DiagnosisError(f"proof scene {scene!r}: the mesh of {shape!r} is not available ({geometry.unresolved});"
+                                 " pass --dataset mit-push=PATH")
+        h = -z_range(geometry, Pose())[0]
+        top = half_extents(odb.get(SURFACE_TYPE).geometry)[2]
+        return SceneSpec(scene, shape, shape, SURFACE_NAME, SURFACE_TYPE, (0.0, 0.0, -top), h, (0.0, 0.0),
+                         (0.02, 0.05), robot=ROBOT_NAME, recorder="mit")
     if scene == "planar":
         h = half_extents(odb.get("steel_block").geometry)[2]
         # the rod's centre 2 mm above the block's mid-height: its 10 mm collision cylinder clears a surface
@@ -83,7 +118,7 @@ def scene_spec(scene: str, odb: ObjectDatabase) -> SceneSpec:
         h = half_extents(odb.get("small_box").geometry)[2]
         return SceneSpec("tabletop", "small_box", "small_box", "table", "table", (0.75, 0.0, 0.725), 0.75 + 0.03,
                          (0.55, -0.1), (0.02, 0.04), (("big_box", "big_box", (0.55, 0.25, 0.875)),))
-    raise DiagnosisError(f"unknown proof scene {scene!r}; scenes: planar, tabletop")
+    raise DiagnosisError(f"unknown proof scene {scene!r}; scenes: planar, tabletop, {MIT_PREFIX}<shape>")
 
 
 def _object_z(spec: SceneSpec, odb: ObjectDatabase) -> float:
@@ -107,24 +142,32 @@ def nominal_world(spec: SceneSpec, odb: ObjectDatabase, start: Sequence[float]) 
 
 
 # --- push designs -------------------------------------------------------------------------------------------
-def design_pushes(spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator, n: int) -> list[Push]:
-    """Pushes mostly along +x (within +-30 deg), at varied contact points, speeds and lengths, each ending with
-    the rod stopping dead so the object slides on."""
+def design_pushes(spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator, n: int,
+                  gap: tuple[float, float] = (0.004, 0.004), *, local: bool = False) -> list[Push]:
+    """Pushes at varied contact points, speeds and lengths, each ending with the rod stopping dead so the object
+    slides on: mostly along +x (within +-30 deg, the object within +-23 deg), or, in a scene of `varied`
+    mechanisms, in any direction with the object at any yaw (within +-60 deg of +x for a `local` effect, whose
+    place lies that way, so that most pushes pass it). The rod starts `gap` (drawn in the range) clear of the
+    object's outline (`prisms.outline_of`; any prism, convex or not)."""
+    yaw_range, push_range = (0.4, 0.5) if not spec.varied else (math.pi, 1.05 if local else math.pi)
+    from ..sim.prisms import outline_of
+
+    outline = outline_of(odb.get(spec.object_type).geometry)
     half = half_extents(odb.get(spec.object_type).geometry)[:2]
     pushes = []
     for _ in range(n):
         x0 = spec.centre[0] + rng.uniform(-spec.spread[0], spec.spread[0])
         y0 = spec.centre[1] + rng.uniform(-spec.spread[1], spec.spread[1])
-        yaw = rng.uniform(-0.4, 0.4)
-        phi = rng.uniform(-0.5, 0.5)
+        yaw = rng.uniform(-yaw_range, yaw_range)
+        phi = rng.uniform(-push_range, push_range)
         d = np.array([math.cos(phi), math.sin(phi)])
         perp = np.array([-d[1], d[0]])
         s = rng.uniform(-0.55, 0.55) * float(np.min(half))
-        entry = _entry(np.array([x0, y0]) + s * perp, d, (x0, y0, yaw), half)
-        gap = 0.004
-        start = np.array([x0, y0]) + s * perp + (entry - PUSHER_RADIUS - gap) * d
         v = rng.uniform(0.06, 0.2)
-        length = gap + rng.uniform(0.06, 0.10)
+        travel = rng.uniform(0.06, 0.10)
+        clearance = gap[0] if gap[1] <= gap[0] else rng.uniform(*gap)
+        start = _rod_start(outline, (x0, y0, yaw), np.array([x0, y0]) + s * perp, d, clearance)
+        length = clearance + travel
         t_move = length / v
         end = HOLD + t_move + AFTER
         times = np.round(np.arange(0.0, end + 1e-9, 1.0 / TEL_RATE), 6)
@@ -134,17 +177,37 @@ def design_pushes(spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator
     return pushes
 
 
-def _entry(point: np.ndarray, d: np.ndarray, pose: Sequence[float], half: np.ndarray) -> float:
-    """Signed distance along d from `point` to where the line enters the object's rectangle (negative: behind)."""
+def _rod_start(outline: np.ndarray, pose: Sequence[float], point: np.ndarray, d: np.ndarray,
+               clearance: float) -> np.ndarray:
+    """Where the rod's centre starts on the line through `point` along `d` so that its surface is `clearance`
+    from the object's outline (at `pose`) when it moves along d: behind where the line enters the outline, or,
+    if the line misses it (a non-convex outline), behind the centre."""
+    from ..recording.mitpush import _signed_distance
+
     x0, y0, yaw = pose
     c, s = math.cos(yaw), math.sin(yaw)
     R = np.array([[c, -s], [s, c]])
-    p = R.T @ (point - np.array([x0, y0]))
-    q = R.T @ d
-    lo, hi = -math.inf, math.inf
-    for k in range(2):
-        if abs(q[k]) < 1e-12:
-            continue
-        a, b = (-half[k] - p[k]) / q[k], (half[k] - p[k]) / q[k]
-        lo, hi = max(lo, min(a, b)), min(hi, max(a, b))
-    return lo
+    world = np.asarray(outline) @ R.T + np.array([x0, y0])
+    entry = _entry(world, point, d)
+    if entry is None:
+        point, entry = np.array([x0, y0]), _entry(world, np.array([x0, y0]), d)
+    start = point + (entry - PUSHER_RADIUS - clearance) * d
+    # a rod that meets a corner before its centre line does: back off until it is clear
+    for _ in range(200):
+        if float(_signed_distance(start[None, :], world)[0]) >= PUSHER_RADIUS + clearance - 1e-6:
+            break
+        start = start - 2e-4 * d
+    return start
+
+
+def _entry(polygon: np.ndarray, point: np.ndarray, d: np.ndarray) -> float | None:
+    """Signed distance along d from `point` to where the line first meets the closed polygon, None if it misses."""
+    a, b = polygon, np.roll(polygon, -1, axis=0)
+    e = b - a
+    denom = d[0] * e[:, 1] - d[1] * e[:, 0]
+    ok = np.abs(denom) > 1e-12
+    w = a - point
+    t = np.where(ok, (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / np.where(ok, denom, 1.0), np.inf)
+    u = np.where(ok, (w[:, 0] * d[1] - w[:, 1] * d[0]) / np.where(ok, denom, 1.0), -1.0)
+    hits = t[ok & (u >= 0.0) & (u <= 1.0)]
+    return float(hits.min()) if hits.size else None

@@ -22,7 +22,10 @@ class StartClearance:
     outline's outward normal at the nearest point (world frame); `lever` (m) the distance from the object's
     centre to the rod's centre at t = 0 (a yaw error of the pose moves the outline there by lever x yaw);
     `contact_spread` (m) the scatter (1.4826 MAD) of the same gap while the rod pushes the object, where it
-    should be zero: what the outline's mismatch with the real object and the motion capture explain."""
+    should be zero: what the outline's mismatch with the real object and the motion capture explain;
+    `contact_gap` (m) its median, which should be zero too (a rod that pushes from millimetres away is not
+    where the recording says: a calibration offset moves it by -D.n, an outline too small or large by its
+    error), and `contact_normal` the outline's mean outward normal there (world frame)."""
 
     kind: ClassVar[str] = "start_clearance"
     object: str
@@ -33,6 +36,8 @@ class StartClearance:
     lever: float
     contact_spread: float | None = None
     joints: tuple[str, str] = ("pusher_x", "pusher_y")
+    contact_gap: float | None = None
+    contact_normal: tuple[float, float] | None = None
 
     @property
     def penetration(self) -> float:
@@ -56,6 +61,8 @@ class StartClearance:
                 "penetration_m": _g(self.penetration), "shift_m": [_g(v) for v in self.shift],
                 "normal": [_g(v) for v in self.normal], "lever_m": _g(self.lever),
                 "contact_spread_m": None if self.contact_spread is None else _g(self.contact_spread),
+                "contact_gap_m": None if self.contact_gap is None else _g(self.contact_gap),
+                "contact_normal": None if self.contact_normal is None else [_g(v) for v in self.contact_normal],
                 "joints": list(self.joints)}
 
 

@@ -85,10 +85,11 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
         if clearance < 0:
             shift = (start_clearance - clearance) * normal
             tip = tip + shift
+        gap, spread, gap_normal = _contact_gap(push, outline, frame_yaw)
         start = StartClearance(shape, float(clearance), (float(normal[0]), float(normal[1])),
                                (float(shift[0]), float(shift[1])), float(start_clearance),
-                               float(np.hypot(*(push.tip_xy[0] - push.object_pose[0, :2]))),
-                               _contact_spread(push, outline, frame_yaw))
+                               float(np.hypot(*(push.tip_xy[0] - push.object_pose[0, :2]))), spread,
+                               contact_gap=gap, contact_normal=gap_normal)
         if start.moved:
             notes.append(start.text())
     if np.any(np.abs(tip) >= 1.0):
@@ -115,19 +116,28 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
                        tuple(notes), force, start)
 
 
-def _contact_spread(push: PushRecording, outline: np.ndarray, frame_yaw: float) -> float | None:
-    """Scatter (m, 1.4826 MAD about the median) of the rod-to-outline gap while the rod pushes the object, where
-    the true gap is zero: what the outline's mismatch and the motion capture leave in a measured gap. A
-    constant offset moves the median, not the scatter. None with fewer than 10 pushed samples."""
+def _contact_gap(push: PushRecording, outline: np.ndarray, frame_yaw: float
+                 ) -> tuple[float | None, float | None, tuple[float, float] | None]:
+    """The rod-to-outline gap (m) while the rod pushes the object, where the true gap is zero: its median, its
+    scatter (1.4826 MAD about the median: what the outline's mismatch and the motion capture leave) and the
+    outline's mean outward normal there (world frame, unit). A constant calibration offset D moves the median by
+    -D.n, not the scatter. (None, None, None) with fewer than 10 pushed samples."""
     pushed = _pushed_samples(push)
     if len(pushed) < 10:
-        return None
+        return None, None, None
     heading = push.object_pose[pushed, 2] + frame_yaw
     rel = push.tip_xy[pushed] - push.object_pose[pushed, :2]
     c, s = np.cos(heading), np.sin(heading)
     local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
     gap = _signed_distance(local, outline) - PUSHER_RADIUS
-    return float(1.4826 * np.median(np.abs(gap - np.median(gap))))
+    h = 1e-5  # the outward normal: the signed distance's gradient (central differences)
+    grad = np.column_stack([_signed_distance(local + d, outline) - _signed_distance(local - d, outline)
+                            for d in (np.array([h, 0.0]), np.array([0.0, h]))]) / (2 * h)
+    world = np.column_stack([c * grad[:, 0] - s * grad[:, 1], s * grad[:, 0] + c * grad[:, 1]]).mean(axis=0)
+    norm = float(np.linalg.norm(world))
+    median = float(np.median(gap))
+    return (median, float(1.4826 * np.median(np.abs(gap - median))),
+            (float(world[0] / norm), float(world[1] / norm)) if norm > 1e-9 else None)
 
 
 def _force(push: PushRecording) -> tuple[ObservedForce | None, str]:

@@ -138,3 +138,23 @@ class SurfacePatch:
         z = self.top_z + self.raised - self.thickness / 2
         WeldedShape(self.name, "box", (x1 - x0, y1 - y0, self.thickness), ((x0 + x1) / 2, (y0 + y1) / 2, z),
                     friction=self.friction, color=(0.75, 0.85, 0.75, 1.0)).add_to(plant, world, odb, config)
+
+
+@dataclass(frozen=True)
+class RobotGains:
+    """The robot's PD gains scaled (every actuator's p by `p_scale`, d by `d_scale`): a stiffer or softer servo
+    than the model's, for generated worlds whose pusher dynamics differ from the model a diagnosis is given."""
+
+    p_scale: float = 1.0
+    d_scale: float = 1.0
+
+    def add_to(self, plant, world, odb, config) -> None:
+        from pydrake.multibody.tree import JointActuatorIndex, PdControllerGains
+
+        if not (self.p_scale > 0 and self.d_scale > 0):
+            raise SceneError(f"robot gains: scales must be > 0, got p x {self.p_scale!r}, d x {self.d_scale!r}")
+        for k in range(plant.num_actuators()):
+            actuator = plant.get_joint_actuator(JointActuatorIndex(k))
+            if actuator.has_controller():
+                gains = actuator.get_controller_gains()
+                actuator.set_controller_gains(PdControllerGains(p=gains.p * self.p_scale, d=gains.d * self.d_scale))

@@ -1,44 +1,50 @@
-"""The held-out rule of the verdict, on chi^2 figures (the fits themselves are proven in test_prove)."""
+"""The verdict's rules on chi^2 figures: the fit's own criteria and cross-validation against the ordinary model
+(the fits themselves are proven in tests/prove)."""
 import math
 
-from bridge.diagnosis.identify import Scored, _acceptable, _held_out_ok
+from bridge.diagnosis.crossval import Prediction
+from bridge.diagnosis.identify import CV_GAIN, CV_LOSS, Scored, _acceptable, _cv_reason, _verdict
 
 
-def _scored(effect: str, each: list[tuple[float, int]]) -> Scored:
-    return Scored(effect, "box", {}, {}, (), 0, math.nan, 0, held_out_chi2=sum(c for c, _ in each),
-                  held_out_n=sum(n for _, n in each), held_out_each=tuple(each))
+def _scored(effect: str, chi2: float, n: int, cv: dict[str, tuple[float, int]] | None = None, **kw) -> Scored:
+    return Scored(effect, "box", kw.pop("params", {}), {}, (), 0, chi2, n,
+                  cv=Prediction(cv) if cv is not None else None, **kw)
 
 
-def test_a_quiet_held_out_recording_does_not_veto_one_the_effect_explains():
-    # One held-out push hits the hidden obstacle (14 noise floors -> 2), the other stays at the floor (0.5 -> 0.95).
-    # Unfloored, the ratios 0.14 (clipped to 0.25) and 1.9 average above 1: the quiet push would veto alone.
-    # Floored at the noise level, the quiet push is a tie.
+def test_an_effect_that_soaks_up_the_fitted_recordings_leftovers_but_predicts_no_better_is_refused():
+    # A mismatched world: the friction model leaves ~10 noise floors on recordings it did not see. A tilt fitted
+    # to the leftovers halves the chi^2 of the recordings it was fitted on, but predicts the others as badly.
     n = 1000
-    simpler = _scored("friction", [(14.0 * n, n), (0.5 * n, n)])
-    model = _scored("hidden_obstacle", [(2.0 * n, n), (0.95 * n, n)])
-    assert _held_out_ok(model, [simpler])
+    floor = _scored("friction", 40.0 * n, 4 * n, {"a": (9.0 * n, n), "b": (11.0 * n, n), "c": (10.0 * n, n)})
+    tilt = _scored("surface_tilt", 20.0 * n, 4 * n, {"a": (8.0 * n, n), "b": (12.5 * n, n), "c": (9.5 * n, n)})
+    why = _cv_reason(tilt, floor)
+    assert why is not None and "removes" in why
 
 
-def test_a_model_that_makes_a_held_out_recording_worse_is_refused():
-    n = 1000
-    simpler = _scored("friction", [(3.0 * n, n), (3.0 * n, n)])
-    model = _scored("surface_tilt", [(2.5 * n, n), (9.0 * n, n)])
-    assert not _held_out_ok(model, [simpler])
+def test_an_effect_one_recording_carries_passes_when_it_costs_the_others_little():
+    # a hidden obstacle met by one push: 500 -> 50 noise floors there, the quiet pushes rise a little
+    n = 240
+    floor = _scored("friction", 0, 0, {"hit": (500.0 * n, n), "q1": (3.0 * n, n), "q2": (2.0 * n, n)})
+    post = _scored("hidden_obstacle", 0, 0, {"hit": (50.0 * n, n), "q1": (4.0 * n, n), "q2": (2.5 * n, n)})
+    assert _cv_reason(post, floor) is None
 
 
-def test_ties_at_the_noise_floor_accept_only_a_model_that_stays_there():
-    n = 1000
-    simpler = _scored("friction", [(0.9 * n, n), (0.8 * n, n)])
-    assert _held_out_ok(_scored("mass", [(0.95 * n, n), (0.97 * n, n)]), [simpler])
-    assert not _held_out_ok(_scored("mass", [(4.0 * n, n), (0.97 * n, n)]), [simpler])
+def test_an_effect_that_trades_one_recording_for_another_is_refused():
+    n = 100
+    floor = _scored("friction", 0, 0, {"a": (60.0 * n, n), "b": (30.0 * n, n)})
+    # removes 33 % of the excess in all, but loses on b 51 % of what it gains on a
+    trade = _scored("com_offset", 0, 0, {"a": (1.0 * n, n), "b": (60.0 * n, n)})
+    share, gains, losses = trade.cv.compare(floor.cv)
+    assert share >= CV_GAIN and losses > CV_LOSS * gains
+    assert "worse" in _cv_reason(trade, floor)
 
 
-def test_a_model_that_explains_most_of_the_held_out_excess_passes_though_one_quiet_push_rises():
-    # The tabletop hidden obstacle: the push that hits it falls from 524 to 56 noise floors, the quiet one rises
-    # from 0.7 to 10 (the fitted friction is still biased). Typical ratio: (4 + 0.25) / 2 > 1; excess: -87 %.
-    simpler = _scored("none", [(162.0, 240), (124725.0, 238)])
-    assert _held_out_ok(_scored("hidden_obstacle", [(2503.0, 240), (13418.0, 238)]), [simpler])
-    assert not _held_out_ok(_scored("hidden_obstacle", [(2503.0, 240), (90000.0, 238)]), [simpler])
+def test_recordings_at_the_noise_floor_under_both_models_are_ties():
+    n = 100
+    floor = _scored("friction", 0, 0, {"a": (0.8 * n, n), "b": (20.0 * n, n)})
+    model = _scored("mass", 0, 0, {"a": (0.95 * n, n), "b": (2.0 * n, n)})
+    share, gains, losses = model.cv.compare(floor.cv)
+    assert losses == 0.0 and abs(share - 18.0 / 19.0) < 1e-12
 
 
 def test_a_model_stopped_by_a_bound_is_never_the_finding():
@@ -47,7 +53,33 @@ def test_a_model_stopped_by_a_bound_is_never_the_finding():
     none = Scored("none", "", {}, {}, (), 0, 40.0 * n, n)
     friction = Scored("friction", "surface", {"friction[surface]": 1.5}, {}, (), 1, 2.0 * n, n,
                       at_bound={"friction[surface]": 1.5})
-    why = _acceptable(friction, none, None, False, None, None)
+    why = _acceptable(friction, none, None, None, None)
     assert why is not None and "bound of friction[surface] = 1.5" in why
     assert _acceptable(Scored("friction", "surface", {"friction[surface]": 0.9}, {}, (), 1, 2.0 * n, n),
-                       none, None, False, None, None) is None
+                       none, None, None, None) is None
+
+
+def test_the_verdict_is_the_floor_when_no_effect_predicts_better_and_the_best_predictor_otherwise():
+    n = 1000
+    cv_none = {"a": (50.0 * n, n), "b": (60.0 * n, n), "c": (55.0 * n, n)}
+    cv_friction = {"a": (10.0 * n, n), "b": (12.0 * n, n), "c": (11.0 * n, n)}
+    none = _scored("none", 160.0 * n, 3 * n, cv_none, score=0.0)
+    friction = _scored("friction", 30.0 * n, 3 * n, cv_friction, params={"friction[surface]": 0.4}, score=10.0)
+    spurious = _scored("latency", 20.0 * n, 3 * n, {"a": (9.0 * n, n), "b": (12.0 * n, n), "c": (11.5 * n, n)},
+                       params={"latency[box]": 0.03}, score=20.0)
+    verdict, note, floor = _verdict([spurious, friction, none], None, None)
+    assert (verdict, floor.effect) == ("friction", "friction") and "latency removes" in note
+    real = _scored("hidden_obstacle", 8.0 * n, 3 * n, {"a": (2.0 * n, n), "b": (3.0 * n, n), "c": (2.5 * n, n)},
+                   params={"obstacle_x[box]": 0.2}, score=15.0)
+    better = _scored("surface_tilt", 7.0 * n, 3 * n, {"a": (1.5 * n, n), "b": (2.0 * n, n), "c": (2.5 * n, n)},
+                     params={"surface_slope_x[box]": 0.02}, score=12.0)
+    verdict, _, _ = _verdict([spurious, real, better, friction, none], None, None)
+    assert verdict == "surface_tilt"  # the better prediction wins over the better score
+
+
+def test_without_cross_validation_the_fits_criteria_decide():
+    n = 1000
+    none = _scored("none", 40.0 * n, n)
+    friction = _scored("friction", 2.0 * n, n, params={"friction[surface]": 0.9})
+    assert _acceptable(friction, none, None, None, None) is None
+    assert not math.isnan(friction.chi2)

@@ -115,3 +115,31 @@ def test_diagnosis_json_and_report_carry_the_adjustments_and_the_evidence(mit_pu
     assert raw["pusher_x"] == pytest.approx(0.0005 + shift["pusher_x"])
     s = _with_raw_offset(replace(none, effect="pusher_offset", target="pusher", params=fitted), shift)
     assert s.derived["raw pusher_y mm"] == pytest.approx(1e3 * (-0.0002 + shift["pusher_y"]))
+
+
+def test_the_contact_gaps_of_real_pushes_recover_a_planted_offset_and_an_outline_error(mit_push_root, mit_odb):
+    """While the rod pushes, its gap to the outline should be zero: a calibration offset D moves it by -n.D
+    (n the outline's normal there, differing by side pushed), an outline too small moves every gap alike. Both
+    are recovered from the gaps alone, before any simulation, relative to what the unplanted pushes give."""
+    names = sorted(p.name for p in (mit_push_root / "train").glob("*shape=rect1_*.h5"))
+    pushes = [load_push(mit_push_root / "train" / n) for n in names]
+
+    def fit(offset=(0.0, 0.0), grow=0.0):
+        trials = [_trial(replace(p, tip_xy=p.tip_xy - np.array(offset)), mit_odb) for p in pushes]
+        if grow:  # the real object larger than the outline: every recorded rod `grow` further from the centre
+            trials = []
+            for p in pushes:
+                rel = p.tip_xy - p.object_pose[:, :2]
+                away = rel / np.linalg.norm(rel, axis=1, keepdims=True)
+                trials.append(_trial(replace(p, tip_xy=p.tip_xy + grow * away), mit_odb))
+        return read_adjustments([prepare(t, mit_odb, 25.0) for t in trials]).contact_fit()
+
+    base = fit()
+    planted = fit(offset=(0.004, -0.003))  # the real rod at recorded + (4, -3) mm
+    assert planted.offset_evident and not base.offset_evident or planted.offset_sigmas() > base.offset_sigmas()
+    np.testing.assert_allclose(np.array(planted.offset) - np.array(base.offset), (0.004, -0.003), atol=4e-4)
+    assert abs(planted.inflation - base.inflation) < 4e-4
+    grown = fit(grow=0.002)
+    assert grown.inflation - base.inflation == pytest.approx(0.002, abs=6e-4)
+    assert np.linalg.norm(np.array(grown.offset) - np.array(base.offset)) < 1e-3
+    assert grown.rms_after < 0.5 * grown.rms_before  # what is left once D and s are removed: the scatter

@@ -38,6 +38,7 @@ class Evidence:
     started_inside: float = 0.0
     loader_offset: Mapping[str, float] | None = None
     loader_shift: Mapping[str, float] = field(default_factory=dict)
+    offset_evident: bool = False  # a rod offset shows before any simulation (start penetrations, contact gaps)
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))
@@ -81,6 +82,7 @@ class Effect:
     mechanism: ClassVar[str] = ""  # how the model enters the replay: scene values / telemetry / poses / extra
     signature_text: ClassVar[str] = ""  # what it leaves in the residual, in words
     smooth: ClassVar[bool] = True  # False: no useful gradient at the null value; fits start from `seeds`
+    local: ClassVar[bool] = False  # True: it sits at one place of a surface; pushes that miss it do not show it
     kinds: ClassVar[tuple[str, ...]] = ()
     fixed: ClassVar[Mapping[str, float]] = {}
     judged_by: ClassVar[tuple[str, ...] | None] = None  # None: every kind with a negligible size

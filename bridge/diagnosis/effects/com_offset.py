@@ -50,7 +50,7 @@ class ComOffset(Effect):
 
     # --- the proof: a dense slug welded off-centre (moves the centre of mass, adds mass) -----------------------
     def draw_truth(self, scene, odb, rng, magnitude, sign):
-        shift = (SHIFT_PLANAR if scene.name == "planar" else SHIFT_TABLETOP)[magnitude]
+        shift = (SHIFT_PLANAR if scene.planar else SHIFT_TABLETOP)[magnitude]
         angle = rng.uniform(-math.pi, math.pi)
         props = mass_properties(odb, scene.object_type)
         slug = 0.8 * props.mass

@@ -32,6 +32,7 @@ class FrictionPatch(Effect):
     signature_text = ("onset in the middle of a push, when the object reaches the same place in several "
                       "recordings; the object keeps moving (no stall), it turns or slides on differently")
     smooth = False
+    local = True
     kinds = ("patch_cx", "patch_cy", "patch_half", "patch_mu")
 
     def targets(self, world, odb, observed):

@@ -26,12 +26,15 @@ class HiddenObstacle(Effect):
     signature_text = ("abrupt onset in the middle of a push at the same place in several recordings; the real "
                       "object stalls or is deflected while the simulated one moves on")
     smooth = False
+    local = True
     kinds = ("obstacle_x", "obstacle_y")
 
     def targets(self, world, odb, observed):
         return surfaces_under(world, odb, observed)
 
     def signature(self, evidence: Evidence, target: str) -> float:
+        if any(f.get("jam_xy_obs") is not None for f in evidence.features):
+            return 0.9  # the robot's force jammed in some recording: something held the object back
         late = [f for f in evidence.significant() if f.get("onset_rel") is not None and f["onset_rel"] > 0.1]
         if not late:
             return 0.1
@@ -39,9 +42,12 @@ class HiddenObstacle(Effect):
         return min(1.0, 0.3 + 0.3 * len(late) / max(1, len(evidence.significant())) + 0.4 * stall)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Posts just ahead of where the real objects' leading edges stalled: the median spot and the first few."""
-        spots = []
-        for f in evidence.significant():
+        """Posts just ahead of the real objects' leading edges where the robot's force jammed (the surest sign:
+        a rod held back by the object it pushes), else where their residual began mid-push: the median spot and
+        the first few."""
+        spots = [np.asarray(f["jam_xy_obs"]) + np.asarray(f["direction"]) * (f["jam_reach"] + OBSTACLE_RADIUS)
+                 for f in evidence.features if f.get("jam_xy_obs") is not None]
+        for f in evidence.significant() if not spots else ():
             if f.get("onset_rel") is None or f["onset_rel"] <= 0.05 or f.get("onset_xy_obs") is None:
                 continue
             d = np.asarray(f["direction"])

@@ -49,14 +49,16 @@ class PusherOffset(Effect):
 
     def signature(self, evidence: Evidence, target: str) -> float:
         """Early onset, across-push and yaw residual; raised towards 1 by the share of recordings whose rod
-        started inside the object (the loader's evidence: what a calibration offset leaves before any motion)."""
+        started inside the object, and to 1 when the contact gaps imply an offset (the loader's evidence: what a
+        calibration offset leaves before any simulation)."""
         early = 1.0 - min(1.0, max(0.0, evidence.mean("onset_rel", 0.0)))
         base = 0.2 + 0.4 * early + 0.2 * (evidence.mean("across") + evidence.mean("yaw"))
-        return base + (1.0 - base) * min(1.0, max(0.0, evidence.started_inside))
+        share = 1.0 if evidence.offset_evident else min(1.0, max(0.0, evidence.started_inside))
+        return base + (1.0 - base) * share
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """The null offset and, when rods started inside the object, the offset their penetrations imply: as
-        it is (what the recordings the loader did not shift need) and less the loader's mean shift (what the
+        """The null offset and, when the loader's evidence implies one (start penetrations, contact gaps), that
+        offset: as it is (what the recordings the loader did not shift need) and less the loader's mean shift (what the
         fitted, partly shifted, telemetry needs on average)."""
         null = self.null_values(evidence.world, evidence.odb, target)
         if not evidence.loader_offset:
@@ -77,11 +79,17 @@ class PusherOffset(Effect):
                      "the robot's base mounted off")
 
     def conceal(self, truth, scene, odb, rollout):
+        """The robot's base welded off by (dx, dy). In a scene of varied mechanisms the operator steered the real
+        rod along the designed path (clear of the object at the start), so the joints, which the recorder reads,
+        ran off by -(dx, dy): the recorded rod may start inside the object, as a miscalibrated one does."""
         world = rollout.world
         base = world.robot.base_pose
         dx, dy = truth.params[pname("joint_offset", "pusher_x")], truth.params[pname("joint_offset", "pusher_y")]
         moved = Pose((base.xyz[0] + dx, base.xyz[1] + dy, base.xyz[2]), base.quat)
-        return rollout.with_world(replace(world, robot=replace(world.robot, base_pose=moved))), rollout.telemetry
+        true = rollout.with_world(replace(world, robot=replace(world.robot, base_pose=moved)))
+        if getattr(scene, "varied", False):
+            true = true.with_telemetry(rollout.telemetry.with_offsets({"pusher_x": -dx, "pusher_y": -dy}))
+        return true, true.telemetry
 
     def target_matches(self, concealed, found, world, odb):
         """The robot, or one of its joints (`robot:joint`)."""
