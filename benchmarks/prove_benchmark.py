@@ -1,12 +1,18 @@
-"""The full proof: every effect concealed at three magnitudes (two seeds each) in planar pushing, com_offset and
-hidden_obstacle in the tabletop scene, and clean cases; each diagnosed blind from 8 recordings (6 fitted, 2 held
-out). Prints the confusion matrix and the summary, writes benchmarks/results/prove.json (and the generated
-recordings under --out). Targets: verdict right >= 90 %, `none` on clean data >= 90 %, held-out error falls
->= 70 % when the verdict is right (median over those cases, of the residual above the noise floor: the pose
-error e itself cannot fall below the measurement noise; its median is printed beside), diagnosing 8 recordings
-<= 5 min on 2 cores.
+"""The full proof, in the diagnosis' own worlds and in mismatched ones, side by side.
 
-    python benchmarks/prove_benchmark.py [--out DIR] [--workers 2] [--only planar|tabletop] [--resume|--summarise]
+Matched: every planar effect concealed at three magnitudes (two seeds each), com_offset and hidden_obstacle in the
+tabletop scene, and clean cases, the recordings made by the diagnosis' own model. Mismatched (`--world
+mismatched`, needs the MIT dataset's meshes): every effect of the catalog at three magnitudes with two seeds on the
+shapes rect1, ellip1, ellip3, hex, tri1, butter in turn, a clean world of every shape per seed, and the tabletop's
+effects, each world differing from the model beneath the effect (bridge/prove/mismatch.py) and recorded as MIT
+pushing h5 files. Each case is diagnosed blind from 8 recordings (6 fitted, 2 held out). Prints the confusion
+matrix and the summaries of both worlds side by side, writes benchmarks/results/prove.json (matched) and
+prove_mismatched.json. Targets (both worlds): verdict right >= 90 %, `none` (or `friction` where the world's
+frictions were moved) on clean worlds >= 90 %, held-out error down >= 60 % when the verdict is right (median over
+those cases, of the residual above the noise floor), diagnosing 8 recordings <= 5 min on 2 cores.
+
+    python benchmarks/prove_benchmark.py [--world matched|mismatched|both] [--out DIR] [--workers 2]
+                                         [--only SCENE] [--limit N] [--resume|--summarise]
 
 The figures cover every case in OUT/progress.json (so a run resumed after an interruption counts them all).
 """
@@ -18,11 +24,11 @@ import time
 from pathlib import Path
 
 from bridge.odb import load_object_database
-from bridge.prove.proof import SETTINGS, proof_cases, proof_json, proof_text, run_case, summarise
+from bridge.prove.proof import SETTINGS, WORLDS, proof_cases, proof_json, proof_text, run_case, summaries
 from bridge.rollout import make_executor
 
 REPO = Path(__file__).resolve().parents[1]
-TARGETS = {"verdict_right": 0.9, "none_on_clean": 0.9, "held_out_excess_reduction_when_right_median": 0.7,
+TARGETS = {"verdict_right": 0.9, "none_on_clean": 0.9, "held_out_excess_reduction_when_right_median": 0.6,
            "seconds_per_case_max": 300.0}  # seconds: diagnosing one case's 8 recordings
 
 
@@ -30,7 +36,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(REPO / "out" / "prove_full"))
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--only", choices=("planar", "tabletop"), default=None)
+    parser.add_argument("--world", choices=WORLDS, default="both")
+    parser.add_argument("--only", default=None, metavar="SCENE", help="only the cases of one scene (planar, tabletop, "
+                        "mit_<shape>)")
+    parser.add_argument("--limit", type=int, default=None, help="at most N cases (in the proof's order)")
     parser.add_argument("--resume", action="store_true", help="skip cases already in OUT/progress.json")
     parser.add_argument("--summarise", action="store_true",
                         help="run nothing: print and save the figures of the cases in OUT/progress.json")
@@ -43,7 +52,8 @@ def main() -> None:
     if not args.summarise:
         odb = load_object_database()
         done = {r["case"] for r in rows}
-        cases = [c for c in proof_cases("full") if args.only is None or c.scene == args.only]
+        cases = [c for c in proof_cases("full", world=args.world) if args.only is None or c.scene == args.only]
+        cases = cases[:args.limit] if args.limit is not None else cases
         with make_executor("serial" if args.workers == 1 else "process", odb, workers=args.workers) as executor:
             for k, case in enumerate(cases):
                 if case.name in done:
@@ -55,15 +65,19 @@ def main() -> None:
                       flush=True)
     text = proof_text(rows)
     print(text)
-    result_path = REPO / "benchmarks" / "results" / "prove.json"
-    result_path.parent.mkdir(parents=True, exist_ok=True)
-    result_path.write_text(json.dumps(proof_json("full", rows, time.perf_counter() - started), indent=2) + "\n")
+    seconds = time.perf_counter() - started
+    for world, name in (("matched", "prove.json"), ("mismatched", "prove_mismatched.json")):
+        chosen = [r for r in rows if r.get("world", "matched") == world]
+        if chosen:
+            result_path = REPO / "benchmarks" / "results" / name
+            result_path.parent.mkdir(parents=True, exist_ok=True)
+            result_path.write_text(json.dumps(proof_json("full", chosen, seconds), indent=2) + "\n")
+            print(f"wrote {result_path}")
     (out / "proof.md").write_text("# Proof (full)\n\n```\n" + text + "\n```\n")
-    print(f"wrote {result_path}")
-    summary = summarise(rows)
-    missed = [k for k, t in TARGETS.items() if summary.get(k) is None
-              or (summary[k] > t if k.startswith("seconds") else summary[k] < t)]
-    print("targets: " + ("all met" if not missed else "missed " + ", ".join(missed)))
+    for world, summary in summaries(rows).items():
+        missed = [k for k, t in TARGETS.items() if summary.get(k) is None
+                  or (summary[k] > t if k.startswith("seconds") else summary[k] < t)]
+        print(f"targets ({world}): " + ("all met" if not missed else "missed " + ", ".join(missed)))
 
 
 if __name__ == "__main__":

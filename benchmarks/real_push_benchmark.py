@@ -19,6 +19,9 @@ push is held out once and scored by what was fitted on the others. Columns:
                replayed once per grid value, then each fold picks the value of least training E)
   drake_an     Drake with the anisotropic_friction effect (bridge/sim/anisotropy.py): anisotropy a along one of
                --aniso-directions grains, chosen on the training folds from a grid (--aniso-grid), as drake_ps
+  drake_gap    Drake with the rod offset D that the training folds' contact gaps imply (the loader's evidence,
+               `bridge.diagnosis.loader.ContactFit`: no simulation, no fit), applied to the held-out push's
+               telemetry; D = 0 when the training pushes do not make it evident
 
 Scores per held-out push: final-pose error (mm, deg: the last observation) and the paper's trajectory error
 e_t (mm), e_R (deg) over the observed track (`bridge.rollout.compare`, eq. 1-4). Median and p90 per shape and
@@ -47,6 +50,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from bridge.fit.evaluate import residuals_of, sim_options  # noqa: E402
+from bridge.diagnosis.loader import read_adjustments  # noqa: E402
+from bridge.diagnosis.runs import prepare  # noqa: E402
 from bridge.fit.fit import fit_parameters  # noqa: E402
 from bridge.odb import load_object_database  # noqa: E402
 from bridge.params import kind_named, parse_params, trial_rollout  # noqa: E402
@@ -59,7 +64,7 @@ from bridge.rollout.limit_surface import (fit_pusher_friction, push_residuals, p
 from bridge.rollout.rollout import Job  # noqa: E402
 from bridge.sim.friction import combined_friction  # noqa: E402
 
-COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an")
+COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an", "drake_gap")
 METRICS = ("final_mm", "final_deg", "e_t_mm", "e_R_deg")
 MAX_FOLDS = 5
 ROD = "pusher/pusher_rod"
@@ -200,9 +205,15 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
             for i in held:
                 rows[i]["ls_fit"] = rows[i]["ls_fit_c"] = None
             continue
+        offset = read_adjustments([prepare(trials[i], odb) for i in train]).offset_estimate() or {}
+        gap_jobs = [Job(replace(trial_rollout(trials[i], (), odb), telemetry=trials[i].telemetry.with_offsets(offset)),
+                        sim_options(trials[i])) for i in held]
+        for i, outcome in zip(held, executor.run(gap_jobs)):
+            rows[i]["drake_gap"] = None if outcome.failed else scores(residuals_of(trials[i], outcome.result, odb))
         fit = fit_pusher_friction([trials[i] for i in train], [pushed[i] for i in train], mu_p0)
         forces = [rows[i]["mu_s_from_force"] for i in train if rows[i]["mu_s_from_force"] is not None]
         entry = {"fold": f, "held_out": [trials[i].name for i in held], "ls_mu_p": fit.mu_p,
+                 "gap_offset_mm": {j: round(1e3 * v, 3) for j, v in offset.items()},
                  "ls_mu_s_from_force": float(np.median(forces)) if forces else None,
                  "ls_train_e_mm": [1e3 * fit.before.e, 1e3 * fit.after.e], "ls_evaluations": fit.evaluations}
         for i in held:

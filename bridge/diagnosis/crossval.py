@@ -34,36 +34,63 @@ PRIOR = 1.0  # chi^2 per squared normalised unit towards the world model's value
 TRUST = 3.0  # normalised units: the largest change of a parameter a leave-one-out step may make
 
 
+CHANNELS = ("poses", "force")
+ACTIVE_RMS = 1.5  # a channel whose floor predicts it within this many noise floors carries nothing to explain
+
+
 @dataclass(frozen=True)
 class Prediction:
-    """A model's predictions of recordings it was not fitted on: (chi^2, samples) per recording, by name."""
+    """A model's predictions of recordings it was not fitted on, by recording name: (chi^2, samples) of the poses
+    and of the robot's force (0, 0 without a force sensor)."""
 
-    each: dict[str, tuple[float, int]]
+    each: dict[str, tuple[float, int, float, int]]
+
+    @classmethod
+    def of(cls, each: dict[str, tuple]) -> "Prediction":
+        """From (chi^2, samples) of the poses, optionally followed by (chi^2, samples) of the force."""
+        return cls({k: (float(v[0]), int(v[1]), *((float(v[2]), int(v[3])) if len(v) > 2 else (0.0, 0)))
+                    for k, v in each.items()})
+
+    def channel(self, k: int) -> dict[str, tuple[float, int]]:
+        return {name: (v[2 * k], v[2 * k + 1]) for name, v in self.each.items() if v[2 * k + 1] > 0}
 
     def excess(self) -> float:
-        """chi^2 above the sensor noise, summed over the recordings (each at least its noise level)."""
-        return float(sum(max(c - n, 0.0) for c, n in self.each.values()))
+        """chi^2 above the sensor noise, summed over the recordings and channels (each at least its noise level)."""
+        return float(sum(max(c - n, 0.0) for k in range(len(CHANNELS)) for c, n in self.channel(k).values()))
 
     @property
     def chi2(self) -> float:
-        return float(sum(c for c, _ in self.each.values()))
+        return float(sum(v[0] + v[2] for v in self.each.values()))
 
     @property
     def n(self) -> int:
-        return int(sum(n for _, n in self.each.values()))
+        return int(sum(v[1] + v[3] for v in self.each.values()))
 
     def compare(self, floor: "Prediction") -> tuple[float, float, float]:
-        """(share of the floor's excess this model removes, its gains, its losses) over the recordings both
-        predicted, each recording's chi^2 floored at its noise level first (a recording at the noise floor
-        under both models is a tie)."""
-        gains = losses = 0.0
-        for name, (c, n) in self.each.items():
-            if name not in floor.each:
+        """(share of the floor's excess this model removes, its gains, its losses), each channel (poses, force)
+        counted in units of the floor's excess in it, then averaged over the channels in which the floor leaves
+        something to explain (its RMS above ACTIVE_RMS noise floors): a channel of thousands of pose samples a
+        mismatched world leaves at ten noise floors does not drown a force that jammed against an obstacle or
+        doubled with the mass. Within a channel the recordings are summed, each recording's chi^2 floored at its
+        noise level first (a recording at the noise floor under both models is a tie)."""
+        shares, gains, losses = [], 0.0, 0.0
+        for k in range(len(CHANNELS)):
+            mine, base = self.channel(k), floor.channel(k)
+            common = [name for name in mine if name in base]
+            excess = sum(max(base[name][0] - base[name][1], 0.0) for name in common)
+            chi2, n = sum(base[name][0] for name in common), sum(base[name][1] for name in common)
+            if not common or excess <= 0 or chi2 <= ACTIVE_RMS ** 2 * n:
                 continue
-            d = max(floor.each[name][0], n) - max(c, n)
-            gains, losses = gains + max(d, 0.0), losses + max(-d, 0.0)
-        base = sum(max(c - n, 0.0) for k, (c, n) in floor.each.items() if k in self.each)
-        return ((gains - losses) / base if base > 0 else 0.0), gains, losses
+            g = l = 0.0
+            for name in common:
+                (c, m), (b, _) = mine[name], base[name]
+                d = max(b, m) - max(c, m)
+                g, l = g + max(d, 0.0), l + max(-d, 0.0)
+            shares.append((g - l) / excess)
+            gains, losses = gains + g / excess, losses + l / excess
+        if not shares:
+            return 0.0, 0.0, 0.0
+        return float(np.mean(shares)), gains / len(shares), losses / len(shares)
 
 
 def leave_one_out_points(result: FitResult) -> list[np.ndarray]:
@@ -100,9 +127,7 @@ def predict_left_out(runner: Runner, ev: Evaluator, result: FitResult) -> tuple[
     return result, runner.run_pairs(pairs)
 
 
-def prediction(runs: Sequence[Run], held_out: Sequence[tuple[str, float, int]] = ()) -> Prediction:
-    """The cross-validated predictions: `runs` (one per recording, each from a fit without it) and the held-out
-    recordings' (name, chi^2, samples) under the model fitted on the others."""
-    each = {r.trial: (r.chi2, int(r.normalised.size)) for r in runs}
-    each.update({name: (c, n) for name, c, n in held_out})
-    return Prediction(each)
+def prediction(runs: Sequence[Run]) -> Prediction:
+    """The cross-validated predictions, one run per recording (each from a fit that did not see it)."""
+    return Prediction({r.trial: (r.chi2 - r.force_chi2, int(r.normalised.size) - r.force_n, r.force_chi2, r.force_n)
+                       for r in runs})

@@ -1,24 +1,22 @@
-"""Identify the missing physics: fit candidate effects and choose one with a criterion that punishes extra
-parameters, checked on held-out recordings.
+"""Identify the missing physics: fit candidate effects and choose the one that predicts recordings it was not
+fitted on better than the ordinary parameters do.
 
 Recipe (`identify`):
 1. locate the mismatch with the world model as it is (`locate`); if no recording carries a residual above the
-   noise floor, the verdict is `none` and nothing is fitted;
+   noise floor, the verdict is `none` and nothing is fitted; read what the loader's evidence says before any
+   simulation (a rod offset from the contact gaps, rods that started inside the object);
 2. fit the ordinary parameters first: the friction coefficients of the object carrying most of the residual and
    of the surface it slides on (the `friction` model);
 3. screen every other effect of the catalog, each together with the friction coefficients, likely ones first
    (their signature against the localisation), from the fitted coefficients: one Gauss-Newton step from the
-   effect's null values for smooth effects,
-   the seeds the localisation suggests for the others (an obstacle where objects stalled, a region where the
-   residual began);
-4. fit the best screened candidates fully with the friction coefficients (Levenberg-Marquardt) and score
-   every model with BIC on the
-   noise-normalised residual (sigma = the noise floor estimated from the data), discounting samples by the
-   residual's correlation time; `none` wins when no model pays for its parameters;
-5. accept a model over the simpler one it extends only if its extra parameters remove at least a fifth of
-   the residual above the noise floor that the simpler one leaves, and (with held-out recordings) lower the
-   held-out error below the simpler models'; otherwise the next model, or `none`. Report winner, runner-up,
-   margin, parameters and their uncertainty (curvature).
+   effect's null values for smooth effects, the seeds the evidence suggests for the others (an obstacle where the
+   rod jammed, a region where the residual began), with the friction coefficients stepped to suit the seed;
+4. fit the best screened candidates fully with the friction coefficients (Levenberg-Marquardt);
+5. cross-validate (`crossval`): every model worth its parameters predicts each recording it was not fitted on;
+6. the verdict: the effect that predicts best among those that remove at least CV_GAIN of what the ordinary model
+   leaves (poses and force balanced), lose at most CV_LOSS of what they gain, and agree with the evidence;
+   else the ordinary model (`friction`, or `none`). Report winner, runner-up, margin, parameters and their
+   uncertainty (curvature).
 """
 from __future__ import annotations
 
@@ -36,9 +34,9 @@ from ..rollout.compare import PoseError
 from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
 from .crossval import Prediction, predict_left_out, prediction
-from .loader import LoaderEvidence, raw_offsets, read_adjustments
+from .loader import NOISE_SIGMAS, LoaderEvidence, raw_offsets, read_adjustments
 from .locate import Localisation, locate
-from .runs import Runner, chi2_of
+from .runs import Run, Runner, chi2_of, force_weight_of
 from .search import Evaluator, FitResult, bic, correlation_time, differenced, fit, pose_error_of, screen
 
 MAX_FULL_FITS = 4  # candidates fitted fully after screening
@@ -73,6 +71,7 @@ class Candidate:
     screened_chi2: float = math.inf
     start: dict[str, float] = field(default_factory=dict)  # the screened point, by parameter name
     note: str = ""
+    gain: float = math.nan  # share of the friction model's excess the screened point removes, channels balanced
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +91,7 @@ class Scored:
     error: PoseError | None = None
     held_out_chi2: float | None = None
     held_out_n: int | None = None
-    held_out_each: tuple[tuple[float, int], ...] = ()  # (chi^2, samples) per held-out recording
+    held_out_runs: tuple[Run, ...] = ()  # the model fitted on the others, on each held-out recording
     held_out_error: PoseError | None = None
     derived: dict[str, float] = field(default_factory=dict)
     evaluations: int = 0
@@ -100,6 +99,8 @@ class Scored:
     at_bound: dict[str, float] = field(default_factory=dict)  # fitted parameters a bound stopped: the bound
     cv: Prediction | None = None  # every recording predicted by the model fitted without it (`crossval`)
     cv_share: float | None = None  # of the floor's cross-validated excess chi^2, the share this model removes
+    contradicted: str | None = None  # why direct evidence (the loader's, before any simulation) rules it out
+    fitted: Prediction | None = None  # the fitted recordings as one: chi^2 and samples of poses and force
 
     @property
     def rms(self) -> float:
@@ -126,8 +127,8 @@ class Scored:
         if self.cv is not None and self.cv.n:
             out["cv"] = {"rms_sigma": round(math.sqrt(self.cv.chi2 / self.cv.n), 3), "recordings": len(self.cv.each),
                          "excess_reduction": round(self.cv_share, 4) if self.cv_share is not None else None,
-                         "rms_sigma_each": {k: round(math.sqrt(c / n), 3) if n else None
-                                            for k, (c, n) in self.cv.each.items()}}
+                         "rms_sigma_each": {k: round(math.sqrt((c + fc) / (n + fn)), 3) if n + fn else None
+                                            for k, (c, n, fc, fn) in self.cv.each.items()}}
         return out
 
 
@@ -204,6 +205,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         raise DiagnosisError("identify needs at least one training recording")
     ev = Evaluator(runner, train)
     loc = locate(runner, list(train))
+    ev.force_weight = force_weight_of(loc.runs)  # poses and force weigh alike in every fit
     held_loc = locate(runner, list(held_out)) if held_out else None
     world = runner.prepared[train[0]].world
     odb = runner.odb
@@ -222,11 +224,13 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
                         loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
                         loader.offset_estimate(), loader.mean_shift(train_names), loader.offset_evident)
-    none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
+    none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs),
+                  fitted=_pooled(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
         + (f"; the robot's force {loc.force_scale():.2f}x the simulated one, above the noise in "
-           f"{sum(f.significant for f in loc.forces)} of {len(loc.forces)} recording(s)"
+           f"{sum(f.significant for f in loc.forces)} of {len(loc.forces)} recording(s); its rows weigh "
+           f"{ev.force_weight:.2g}x in every fit, so that poses and force weigh alike"
            if loc.force_scale() is not None else ""))
     if not loc.any_significant:
         advance(1)
@@ -261,11 +265,12 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     friction_scored = _from_fit("friction", None, base_fit, world, odb)
     fits = {("friction", None): base_fit}  # the fit of each model, by (effect, target): its Jacobian for the winner
     say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}"
-        + (" (cut short by the time limit)" if base_fit.stopped else ""))
+        + (" (cut short by the time limit)" if base_fit.stopped else "") + f" [{runner.simulations} simulations]")
     advance()
 
     # 3. screen candidates (each together with the friction coefficients), likely ones first
     screened = []
+    reference_runs = ev.runs(friction_scored.model) if base_fit.chi2 <= ev.chi2(()) else tuple(loc.runs)
     fitted_friction = base_fit.values()  # every candidate starts from the fitted coefficients
     nominal_friction = {p.name: p.start for p in friction_params}
     for k, c in enumerate(candidates):
@@ -287,27 +292,24 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         ev.runs_many([_model(space, x) for x in starts])  # one batch on the workers
         chis = [ev.chi2(_model(space, x)) for x in starts]
         x, chi2 = starts[int(np.argmin(chis))], float(min(chis))
-        if effect.smooth:
-            for family in (starts[0::2], starts[1::2]):  # fitted, nominal coefficients
-                best = min(family, key=lambda y: ev.chi2(_model(space, y)))
-                y, c2 = screen(ev, space, best)
-                if c2 < chi2:
-                    x, chi2 = y, c2
-        elif friction_params:
-            # the best seed with the friction coefficients moved to suit it (a heavier object pushes back harder
-            # with less friction); the seed's own values stay (no useful gradient there)
-            y, c2 = screen(ev, space, x, free=range(len(friction_params)))
+        # from the best start, one step in every coordinate; for an effect without a useful gradient at its null
+        # (a post, a mass) also one with only the friction coefficients moved to suit the seed (a heavier object
+        # pushes back harder with less friction)
+        frees = [None] + ([range(len(friction_params))] if friction_params and not effect.smooth else [])
+        for free in frees:
+            y, c2 = screen(ev, space, x, free=free)
             if c2 < chi2:
                 x, chi2 = y, c2
-        screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x))))
-        say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}")
+        gain = prediction(ev.runs(_model(space, x))).compare(prediction(reference_runs))[0]
+        screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x)), gain=gain))
+        say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}, "
+            f"removes {100 * gain:.0f} % of the friction model's excess [{runner.simulations} simulations]")
         advance()
 
-    reference = min(none_chi2, base_fit.chi2)
-
     def rank_key(c: Candidate) -> float:
-        gain = (reference - c.screened_chi2) / max(reference, 1e-12)  # < 0: the screen made it worse
-        return -(gain * (0.5 + 0.5 * c.prior))
+        # the share of the friction model's excess it removes, poses and force balanced (`Prediction.compare`):
+        # < 0 when the screen made it worse
+        return -(c.gain * (0.5 + 0.5 * c.prior))
 
     order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
     full = order[:options.max_full_fits]
@@ -334,7 +336,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
         x_f = base_space.to_normal(frictions)
-        if ev.chi2(_model(base_space, x_f)) < fitted[1].chi2:
+        if ev.chi2(_model(base_space, x_f)) < fits[("friction", None)].chi2:
             base_fit = fit(ev, base_space, x_f, max_iterations=FRICTION_EXTRA, optimizer=options.optimizer,
                            should_stop=limit.expired)
             fitted[1] = _held_out(runner, held_out, [_from_fit("friction", None, base_fit, world, odb)])[0]
@@ -344,7 +346,8 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         fitted.append(scored)
         ok = _fit_reason(scored, fitted[0], fitted[1], world, odb) is None
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
-            f"{'' if ok else ' - not confirmed'}" + (" (cut short by the time limit)" if result.stopped else ""))
+            f"{'' if ok else ' - not confirmed'}" + (" (cut short by the time limit)" if result.stopped else "")
+            + f" [{runner.simulations} simulations]")
         fits_done += 1
         advance()
     stopped = STOPPED if limit.stopped_after is not None else None
@@ -355,9 +358,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                      f"{min(options.max_full_fits, len(candidates))}); the verdict is over what was tried, an effect "
                      "not tried may explain more")
         say(notes[-1])
+    fitted = [_checked_against(s, loader, evidence.loader_shift) for s in fitted]
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
     scored = _score(fitted, tau)
     scored, fits = _cross_validate(runner, ev, scored, fits, loc, _names(runner, held_out), world, odb)
+    say(f"cross-validated {sum(s.cv is not None for s in scored)} model(s) [{runner.simulations} simulations]")
     verdict, check, floor = _verdict(scored, world, odb)
     if check:
         notes.append(check)
@@ -430,8 +435,16 @@ def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) ->
     params = {p.name: values[p.name] for p in own}
     derived = get_effect(effect).describe(world, odb, target, params)
     return Scored(effect, target, params, {p.name: std[p.name] for p in own}, result.model(), result.space.dim,
-                  result.chi2, result.n, error=pose_error_of(result.runs), derived=derived,
-                  evaluations=result.evaluations, model_std=std, at_bound=result.at_bound())
+                  chi2_of(result.runs)[0], result.n, error=pose_error_of(result.runs), derived=derived,
+                  evaluations=result.evaluations, model_std=std, at_bound=result.at_bound(),
+                  fitted=_pooled(result.runs))
+
+
+def _pooled(runs: Sequence[Run]) -> Prediction:
+    """The runs of the fitted recordings as one entry (poses and force apart), for `Prediction.compare`."""
+    p = prediction(runs)
+    return Prediction({"fitted": tuple(float(sum(v[k] for v in p.each.values())) if k % 2 == 0 else
+                                       int(sum(v[k] for v in p.each.values())) for k in range(4))})
 
 
 def _with_raw_offset(s: Scored, shift: dict[str, float]) -> Scored:
@@ -468,23 +481,50 @@ def _held_out(runner: Runner, held_out: Sequence[int], scored: list[Scored]) -> 
     for s, r in zip(scored, runs):
         chi2, n = chi2_of(r)
         out.append(replace(s, held_out_chi2=chi2, held_out_n=n, held_out_error=pose_error_of(r),
-                           held_out_each=tuple((run.chi2, run.normalised.size) for run in r)))
+                           held_out_runs=tuple(r)))
     return out
 
 
 def _fit_reason(s: Scored, none: Scored, friction: Scored | None, world, odb) -> str | None:
     """Why `s` is not worth its parameters on the recordings it was fitted on (None: it is), see `_verdict`."""
+    if s.contradicted:
+        return s.contradicted
     if s.at_bound:
         return (f"{s.effect}'s fit ended on the bound of {_fmt(s.at_bound)} and asks for more: the recordings want "
                 f"values outside the physical range, so this model does not describe them (not a finding)")
     if s.effect not in ("none", "friction") and get_effect(s.effect).negligible(world, odb, s.target, s.params):
         return f"{s.effect}'s parameters ({_fmt(s.params)}) are too small to matter physically"
     base = none if s.effect == "friction" or friction is None else friction
-    excess = max(base.chi2 - base.n, 0.0)
-    if base.chi2 - s.chi2 < (MIN_GAIN if base.rms >= NOISE_RMS else NEAR_NOISE_GAIN) * excess:
-        return (f"{s.effect} removes only {100 * (base.chi2 - s.chi2) / max(excess, 1e-12):.0f} % of the residual "
-                f"above the noise that {base.effect} leaves")
+    if s.fitted is not None and base.fitted is not None:  # poses and force balanced (`Prediction.compare`)
+        gain = s.fitted.compare(base.fitted)[0]
+    else:
+        gain = (base.chi2 - s.chi2) / max(base.chi2 - base.n, 1e-12)
+    if gain < (MIN_GAIN if base.rms >= NOISE_RMS else NEAR_NOISE_GAIN):
+        return f"{s.effect} removes only {100 * gain:.0f} % of the residual above the noise that {base.effect} leaves"
     return None
+
+
+def _checked_against(s: Scored, loader: LoaderEvidence, shift: dict[str, float]) -> Scored:
+    """`s` marked `contradicted` when the loader's direct evidence rules it out: a fitted rod offset that the
+    rod-to-outline gaps while pushing do not show (`ContactFit`: they measure the offset without simulating,
+    so a fit that puts the rod elsewhere is soaking up something else). Beyond NOISE_SIGMAS of the gaps'
+    uncertainty (Mahalanobis), the same rule that makes the gaps' own offset evident."""
+    from dataclasses import replace
+
+    fit = loader.contact_fit()
+    if s.effect != "pusher_offset" or fit is None:
+        return s
+    raw = raw_offsets(s.params, shift) or {k[len("joint_offset["):-1]: v for k, v in s.params.items()
+                                           if k.startswith("joint_offset[")}
+    fitted = np.array([raw.get(j, 0.0) for j in fit.joints])
+    gap = fitted - np.array(fit.offset)
+    sigmas = float(np.sqrt(max(0.0, gap @ np.linalg.pinv(np.array(fit.offset_cov)) @ gap)))
+    if sigmas <= NOISE_SIGMAS:
+        return s
+    return replace(s, contradicted=(
+        f"pusher_offset's fitted rod offset ({1e3 * fitted[0]:+.1f}, {1e3 * fitted[1]:+.1f}) mm is not what the "
+        f"rod-to-outline gaps while pushing show ({1e3 * fit.offset[0]:+.1f}, {1e3 * fit.offset[1]:+.1f}) mm, "
+        f"{sigmas:.0f} sigma apart: it soaks up something else"))
 
 
 def _cv_reason(s: Scored, floor: Scored) -> str | None:
@@ -584,7 +624,7 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
     out = []
     for s in scored:
         key = ("friction", None) if s.effect == "friction" else (s.effect, s.target)
-        held = [(name, c, n) for name, (c, n) in zip(held_names, s.held_out_each)]
+        held = list(s.held_out_runs)
         if s.effect == "none":
             runs = list(loc.runs) if len(ev.indices) > 1 else []
         elif key in fits and _fit_reason(s, none, friction, world, odb) is None:
@@ -593,5 +633,5 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
         else:
             out.append(s)
             continue
-        out.append(replace(s, cv=prediction(runs, held)))
+        out.append(replace(s, cv=prediction(list(runs) + held)))
     return out, fits

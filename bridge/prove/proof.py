@@ -54,6 +54,8 @@ WORLDS = ("matched", "mismatched", "both")
 MISMATCHED_SHAPES = ("rect1", "ellip1", "ellip3", "hex", "tri1", "butter")
 MISMATCHED_EFFECTS = PLANAR_EFFECTS + ("pressure_distribution", "anisotropic_friction")
 CI_SHAPE = "steel_block"  # a dataset-free box in the MIT format (odb/types/proof.yaml)
+TABLETOP_MISMATCHED = ("none", "friction", "mass", "com_offset", "surface_tilt", "friction_patch", "latency",
+                       "pusher_offset", "hidden_obstacle")
 
 
 def proof_cases(size: str, seed: int = 0, world: str = "matched") -> list[Case]:
@@ -84,7 +86,8 @@ def proof_cases(size: str, seed: int = 0, world: str = "matched") -> list[Case]:
 
 def _mismatched_cases(size: str, seed: int) -> list[Case]:
     """small (CI, no dataset needed): a clean world and one effect on the steel block; full: every effect of the
-    catalog at three magnitudes, two seeds, the shapes taken in turn, and a clean world of every shape per seed."""
+    catalog at three magnitudes, two seeds, the shapes taken in turn, a clean world of every shape per seed, and
+    the tabletop's effects at the medium magnitude."""
     if size == "small":
         return [Case(f"mit_{CI_SHAPE}", e, "large", seed + 1, "mismatched") for e in ("none", "surface_tilt")]
     if size != "full":
@@ -95,6 +98,9 @@ def _mismatched_cases(size: str, seed: int) -> list[Case]:
         cases += [Case(f"mit_{MISMATCHED_SHAPES[(k + s) % len(MISMATCHED_SHAPES)]}", e, m, seed + s, "mismatched")
                   for k, (m, e) in enumerate(pairs)]
         cases += [Case(f"mit_{shape}", "none", "medium", seed + s, "mismatched") for shape in MISMATCHED_SHAPES]
+    # the tabletop (the small box on the table, the rod 3 cm above it; recording folders), every effect it can
+    # show, medium, one seed
+    cases += [Case("tabletop", e, "medium", seed + 1, "mismatched") for e in TABLETOP_MISMATCHED]
     return cases
 
 

@@ -8,7 +8,7 @@ from bridge.diagnosis.identify import CV_GAIN, CV_LOSS, Scored, _acceptable, _cv
 
 def _scored(effect: str, chi2: float, n: int, cv: dict[str, tuple[float, int]] | None = None, **kw) -> Scored:
     return Scored(effect, "box", kw.pop("params", {}), {}, (), 0, chi2, n,
-                  cv=Prediction(cv) if cv is not None else None, **kw)
+                  cv=Prediction.of(cv) if cv is not None else None, **kw)
 
 
 def test_an_effect_that_soaks_up_the_fitted_recordings_leftovers_but_predicts_no_better_is_refused():

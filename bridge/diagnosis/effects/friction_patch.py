@@ -97,8 +97,19 @@ class FrictionPatch(Effect):
         x1 = x0 + rng.uniform(0.25, 0.35)
         edge = scene.centre[1] + rng.uniform(-0.02, 0.02)
         y0, y1 = (edge, edge + 0.4) if rng.random() < 0.5 else (edge - 0.4, edge)
+        shape = "half"
+        if getattr(scene, "varied", False):  # the mismatched proof: a half-plane, a strip across the way, a square
+            shape = ("half", "strip", "square")[int(rng.integers(3))]
+            if shape == "strip":
+                x1 = x0 + rng.uniform(0.03, 0.06)
+                y0, y1 = scene.centre[1] - 0.4, scene.centre[1] + 0.4
+            elif shape == "square":
+                half = rng.uniform(0.03, 0.06)
+                cx, cy = scene.centre[0] + rng.uniform(0.06, 0.1), scene.centre[1] + rng.uniform(-0.03, 0.03)
+                x0, x1, y0, y1 = cx - half, cx + half, cy - half, cy + half
         return Truth(self.name, scene.surface, {"pair_mu_inside": pair, "x0": x0},
-                     "a thin sheet of another material on the surface", {"region": [x0, x1, y0, y1], "tile_mu": mu_tile})
+                     f"a thin sheet of another material on the surface ({shape})",
+                     {"region": [x0, x1, y0, y1], "tile_mu": mu_tile, "shape": shape})
 
     def conceal(self, truth, scene, odb, rollout):
         top = scene.surface_xyz[2] + half_extents(odb.get(scene.surface_type).geometry)[2]

@@ -42,11 +42,18 @@ class HiddenObstacle(Effect):
         return min(1.0, 0.3 + 0.3 * len(late) / max(1, len(evidence.significant())) + 0.4 * stall)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Posts just ahead of the real objects' leading edges where the robot's force jammed (the surest sign:
-        a rod held back by the object it pushes), else where their residual began mid-push: the median spot and
-        the first few."""
+        """Posts just beyond the real objects' leading faces where the robot's force jammed (the surest sign: a rod
+        held back by the object it pushes; with two jams or more, where those faces' lines meet first), else where
+        their residual began mid-push: the median spot and the first few."""
+        jams = [f for f in evidence.features if f.get("jam_xy_obs") is not None]
         spots = [np.asarray(f["jam_xy_obs"]) + np.asarray(f["direction"]) * (f["jam_reach"] + OBSTACLE_RADIUS)
-                 for f in evidence.features if f.get("jam_xy_obs") is not None]
+                 for f in jams]
+        if len(jams) >= 2:  # each jam puts the post just beyond the leading face: where the faces' lines meet
+            A = np.array([f["direction"] for f in jams])
+            b = np.array([float(np.dot(f["direction"], f["jam_xy_obs"])) + f["jam_reach"] + OBSTACLE_RADIUS
+                          for f in jams])
+            if np.linalg.cond(A.T @ A) < 1e3:  # directions apart enough to fix a point
+                spots.insert(0, np.linalg.lstsq(A, b, rcond=None)[0])
         for f in evidence.significant() if not spots else ():
             if f.get("onset_rel") is None or f["onset_rel"] <= 0.05 or f.get("onset_xy_obs") is None:
                 continue
@@ -69,16 +76,23 @@ class HiddenObstacle(Effect):
         x = scene.centre[0] + reach + 0.055 + size / 2 + rng.uniform(-0.01, 0.01)
         y = scene.centre[1] + rng.uniform(-0.025, 0.025)
         s = scene.surface
-        return Truth(self.name, s, {pname("obstacle_x", s): x, pname("obstacle_y", s): y}, "a welded box",
-                     {"size": size, "yaw": rng.uniform(-0.8, 0.8)})
+        shape, aspect = "box", 1.0
+        if getattr(scene, "varied", False):  # the mismatched proof: boxes of other proportions, round posts
+            shape = ("box", "cylinder")[int(rng.integers(2))]
+            aspect = rng.uniform(0.5, 2.0) if shape == "box" else 1.0
+        return Truth(self.name, s, {pname("obstacle_x", s): x, pname("obstacle_y", s): y}, f"a welded {shape}",
+                     {"size": size, "yaw": rng.uniform(-0.8, 0.8), "shape": shape, "aspect": aspect})
 
     def conceal(self, truth, scene, odb, rollout):
         top = scene.surface_xyz[2] + half_extents(odb.get(scene.surface_type).geometry)[2]
         s, size = scene.surface, truth.extra["size"]
-        box = WeldedShape("obstacle", "box", (size, size, 0.06), (truth.params[pname("obstacle_x", s)],
-                                                                  truth.params[pname("obstacle_y", s)], top + 0.03),
-                          (0.0, 0.0, truth.extra["yaw"]), friction=0.5)
-        return rollout.with_extras(box), rollout.telemetry
+        xyz = (truth.params[pname("obstacle_x", s)], truth.params[pname("obstacle_y", s)], top + 0.03)
+        if truth.extra.get("shape") == "cylinder":
+            body = WeldedShape("obstacle", "cylinder", (size / 2, 0.06), xyz, friction=0.5)
+        else:
+            body = WeldedShape("obstacle", "box", (size, size * truth.extra.get("aspect", 1.0), 0.06), xyz,
+                               (0.0, 0.0, truth.extra["yaw"]), friction=0.5)
+        return rollout.with_extras(body), rollout.telemetry
 
     def recovered(self, truth, found, model, world, odb):
         x, y = pname("obstacle_x", truth.target), pname("obstacle_y", truth.target)

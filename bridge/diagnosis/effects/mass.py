@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import math
 
+from ...params.surfaces import support_of
 from ...sim.extras import Slug
+from ...sim.friction import combined_friction, surface_friction_for
 from ...sim.shapes import mass_properties
 from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
 
@@ -30,14 +32,28 @@ class Mass(Effect):
         return movable_observed(world, odb, observed)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """The mass scaled by the force ratio (observed / simulated) when a force was recorded, and its square
-        root (friction may share the ratio); without a force, the null and a third more or less."""
-        mass = next(p for p in self.parameters(evidence.world, evidence.odb, target) if p.kind.name == "mass")
+        """The mass scaled by the force ratio r (observed / simulated) when a force was recorded, and by its
+        square root; and, since a sliding object's force is its weight times the pair's coefficient, r split
+        between the two: mass x r^s with the surface's coefficient set so that the pair's is x r^(1 - s), for
+        s = 1/3, 1/2, 2/3 (the slide-on after the rod stops, which the coefficient alone sets, then tells them
+        apart). Without a force, the null and a third more or less."""
+        world, odb = evidence.world, evidence.odb
+        mass = next(p for p in self.parameters(world, odb, target) if p.kind.name == "mass")
         scale = evidence.force_scale
         factors = (scale, math.sqrt(scale)) if scale is not None else (1.0, 1.35, 0.75)
         lo, hi = mass.bounds
-        return [{mass.name: float(min(max(f * mass.start, lo), hi)), pname("mass_spread", target): spread}
-                for f in factors for spread in (1.0, 0.0)]
+        seeds = [{mass.name: float(min(max(f * mass.start, lo), hi)), pname("mass_spread", target): spread}
+                 for f in factors for spread in (1.0, 0.0)]
+        surface = support_of(world, odb, target)
+        if scale is None or surface is None or abs(math.log(scale)) < 0.1:
+            return seeds
+        mu_o = odb.get(world.objects[target].type).physics.friction
+        pair = combined_friction(mu_o, odb.get(world.objects[surface].type).physics.friction)
+        for share in (1 / 3, 1 / 2, 2 / 3):
+            seeds.append({mass.name: float(min(max(scale ** share * mass.start, lo), hi)),
+                          pname("mass_spread", target): 0.0,
+                          pname("friction", surface): float(surface_friction_for(pair * scale ** (1 - share), mu_o))})
+        return seeds
 
     def signature(self, evidence: Evidence, target: str) -> float:
         off = 0.0 if evidence.force_scale is None else min(1.0, abs(math.log(evidence.force_scale)) / 0.3)
