@@ -66,15 +66,15 @@ class Prediction:
     def n(self) -> int:
         return int(sum(v[1] + v[3] for v in self.each.values()))
 
-    def compare(self, floor: "Prediction") -> tuple[float, float, float]:
-        """(share of the floor's excess this model removes, its gains, its losses), each channel (poses, force)
-        counted in units of the floor's excess in it, then averaged over the channels in which the floor leaves
-        something to explain (its RMS above ACTIVE_RMS noise floors): a channel of thousands of pose samples a
-        mismatched world leaves at ten noise floors does not drown a force that jammed against an obstacle or
-        doubled with the mass. Within a channel the recordings are summed, each recording's chi^2 floored at its
-        noise level first (a recording at the noise floor under both models is a tie)."""
-        shares, gains, losses = [], 0.0, 0.0
-        for k in range(len(CHANNELS)):
+    def compare(self, floor: "Prediction") -> tuple[float, list[tuple[str, float, float]]]:
+        """(share of the floor's excess this model removes, [(channel, gains, losses)]): each channel (poses,
+        force) counted in units of the floor's excess in it, the share averaged over the channels in which the
+        floor leaves something to explain (its RMS above ACTIVE_RMS noise floors): a channel of thousands of pose
+        samples a mismatched world leaves at ten noise floors does not drown a force that jammed against an
+        obstacle or doubled with the mass. Within a channel the recordings are summed, each recording's chi^2
+        floored at its noise level first (a recording at the noise floor under both models is a tie)."""
+        shares, channels = [], []
+        for k, label in enumerate(CHANNELS):
             mine, base = self.channel(k), floor.channel(k)
             common = [name for name in mine if name in base]
             excess = sum(max(base[name][0] - base[name][1], 0.0) for name in common)
@@ -87,10 +87,8 @@ class Prediction:
                 d = max(b, m) - max(c, m)
                 g, l = g + max(d, 0.0), l + max(-d, 0.0)
             shares.append((g - l) / excess)
-            gains, losses = gains + g / excess, losses + l / excess
-        if not shares:
-            return 0.0, 0.0, 0.0
-        return float(np.mean(shares)), gains / len(shares), losses / len(shares)
+            channels.append((label, g / excess, l / excess))
+        return (float(np.mean(shares)) if shares else 0.0), channels
 
 
 def leave_one_out_points(result: FitResult) -> list[np.ndarray]:

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -113,18 +113,6 @@ class LoaderEvidence:
         the same way (one offset), near 0 when the directions scatter."""
         units = [np.array(r.start.shift) / max(float(np.hypot(*r.start.shift)), 1e-12) for r in self.inside]
         return float(np.linalg.norm(np.mean(units, axis=0))) if units else 0.0
-
-    def mean_shift(self, names: Sequence[str] | None = None) -> dict[str, float]:
-        """The loader's tip shift (m) per robot joint, averaged over `names` (default all) that have a start
-        clearance, unshifted ones counting as zero: what a fit over those recordings has already absorbed."""
-        chosen = [r for r in self.readings if names is None or r.recording in names]
-        if not chosen:
-            return {}
-        out: dict[str, float] = {}
-        for r in chosen:
-            for joint, value in zip(r.start.joints, r.start.shift):
-                out[joint] = out.get(joint, 0.0) + value / len(chosen)
-        return out
 
     def contact_fit(self) -> ContactFit | None:
         """The offset and inflation the contact gaps of every recording imply (`ContactFit`); None with fewer than
@@ -247,19 +235,6 @@ def start_threshold(start: StartClearance, noise: tuple[float, float] | None, sp
         return None
     sigma_xy, sigma_yaw = noise
     return NOISE_SIGMAS * math.sqrt(sigma_xy ** 2 + (start.lever * sigma_yaw) ** 2 + spread ** 2)
-
-
-def raw_offsets(params: Mapping[str, float], shift: Mapping[str, float]) -> dict[str, float]:
-    """A fitted pusher offset relative to the raw recording (m per joint): the fitted `joint_offset[j]` plus the
-    loader's mean shift of joint j (the fit started from shifted telemetry). Empty when nothing was shifted."""
-    if not any(shift.values()):
-        return {}
-    out = {}
-    for name, value in params.items():
-        if name.startswith("joint_offset[") and name.endswith("]"):
-            joint = name[len("joint_offset["):-1]
-            out[joint] = float(value) + shift.get(joint, 0.0)
-    return out
 
 
 def _noise(p: Prepared, obj: str) -> tuple[float, float] | None:

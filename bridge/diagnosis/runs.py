@@ -176,37 +176,13 @@ def default_workers() -> int:
     return max(1, min(2, os.cpu_count() or 1))
 
 
-def chi2_of(runs: Sequence[Run], force_weight: float = 1.0) -> tuple[float, int]:
-    """Total chi^2 and number of normalised residual values over runs (the force's rows times `force_weight`)."""
-    chi2 = sum(r.chi2 + (force_weight ** 2 - 1.0) * r.force_chi2 for r in runs)
-    return float(chi2), int(sum(r.normalised.size for r in runs))
+def chi2_of(runs: Sequence[Run]) -> tuple[float, int]:
+    """Total chi^2 and number of normalised residual values over runs."""
+    return float(sum(r.chi2 for r in runs)), int(sum(r.normalised.size for r in runs))
 
 
-def vector_of(runs: Sequence[Run], force_weight: float = 1.0) -> np.ndarray:
-    """The runs' normalised residuals end to end, each run's force rows (its last) times `force_weight`."""
-    if not runs:
-        return np.zeros(0)
-    parts = []
-    for r in runs:
-        v = r.normalised
-        if force_weight != 1.0 and r.force_n:
-            v = v.copy()
-            v[-r.force_n:] *= force_weight
-        parts.append(v)
-    return np.concatenate(parts)
-
-
-def force_weight_of(runs: Sequence[Run], limits: tuple[float, float] = (0.1, 100.0)) -> float:
-    """The weight that gives the robot's force rows as much chi^2 as the poses' in `runs` (the nominal replays):
-    the two channels of evidence weigh alike in every fit, whatever their numbers of samples. Why: a world that
-    differs from the model leaves thousands of pose samples at ten noise floors under every model, which would
-    otherwise drown the force, the one channel that tells a heavier object from a rougher surface and shows a rod
-    jammed against an obstacle. 1 without a force."""
-    force = sum(r.force_chi2 for r in runs)
-    poses = sum(r.chi2 - r.force_chi2 for r in runs)
-    if force <= 0 or poses <= 0:
-        return 1.0
-    return float(np.clip(math.sqrt(poses / force), *limits))
+def vector_of(runs: Sequence[Run]) -> np.ndarray:
+    return np.concatenate([r.normalised for r in runs]) if runs else np.zeros(0)
 
 
 def all_finite(runs: Sequence[Run]) -> bool:

@@ -29,11 +29,10 @@ class Evaluator:
     (`bridge.params.canonical_model`: settings that reproduce the world model left out), so a candidate at its
     null values is the friction model it extends, not a new simulation."""
 
-    def __init__(self, runner: Runner, indices: Sequence[int], force_weight: float = 1.0):
+    def __init__(self, runner: Runner, indices: Sequence[int]):
         self.runner, self.indices = runner, list(indices)
         self.cache: dict[Model, tuple[Run, ...]] = {}
         self.world = runner.prepared[self.indices[0]].world if self.indices else None
-        self.force_weight = force_weight  # the force rows' weight in every fit (`runs.force_weight_of`)
 
     def canonical(self, model: Model) -> Model:
         return canonical_model(model, self.world, self.runner.odb) if self.world is not None else tuple(model)
@@ -50,7 +49,7 @@ class Evaluator:
         return self.runs_many([model])[0]
 
     def vector(self, model: Model) -> np.ndarray:
-        return vector_of(self.runs(model), self.force_weight)
+        return vector_of(self.runs(model))
 
     def chi2(self, model: Model) -> float:
         v = self.vector(model)
@@ -59,8 +58,7 @@ class Evaluator:
     def residuals(self, space: ParameterSet):
         """The batch residual of `space` in normalised coordinates, for the optimisers."""
         def batch(xs: Sequence[np.ndarray]) -> list[np.ndarray]:
-            return [vector_of(r, self.force_weight)
-                    for r in self.runs_many([space.model(space.from_normal(x)) for x in xs])]
+            return [vector_of(r) for r in self.runs_many([space.model(space.from_normal(x)) for x in xs])]
         return batch
 
 
@@ -136,7 +134,7 @@ def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: i
     before = len(ev.cache)
     if space.dim == 0:
         runs = ev.runs(space.model())
-        return FitResult(space, np.zeros(0), vector_of(runs, ev.force_weight), None, runs, len(ev.cache) - before)
+        return FitResult(space, np.zeros(0), vector_of(runs), None, runs, len(ev.cache) - before)
     lower, upper = space.normal_bounds()
     residuals = ev.residuals(space)
     if optimizer == "lm":
@@ -148,8 +146,7 @@ def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: i
             return FitResult(space, x, f, J, ev.runs(space.model(space.from_normal(x))), len(ev.cache) - before,
                              stopped, differenced=False)
     else:
-        found = minimise(optimizer, lambda values: [vector_of(r, ev.force_weight)
-                                                    for r in ev.runs_many([space.model(v) for v in values])],
+        found = minimise(optimizer, lambda values: [vector_of(r) for r in ev.runs_many([space.model(v) for v in values])],
                          space, space.from_normal(x0), iterations=max_iterations, should_stop=should_stop)
         x, f, stopped = space.to_normal(found.values), found.vector, found.stopped
         J = None if stopped else jacobian(residuals, x, f, upper)

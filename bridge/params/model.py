@@ -85,6 +85,25 @@ def _with_nulls(family: type[Family], values: dict[str, float], world, odb, targ
 
 def trial_rollout(trial: Trial, model: Sequence[Setting], odb: ObjectDatabase, *, strict: bool = True) -> Rollout:
     """The rollout of a trial under `model`: the recording's world and telemetry, then the trial's base model
-    (a diagnosed scene file), then `model`."""
+    (a diagnosed scene file), then `model`. A joint offset is relative to the raw recording (`raw_relative`)."""
     rollout = Rollout(trial.world, trial.telemetry, name=trial.name)
-    return apply_model(tuple(trial.base) + tuple(model), rollout, odb, strict=strict, source=str(trial.source))
+    return apply_model(raw_relative(tuple(trial.base) + tuple(model), trial), rollout, odb, strict=strict,
+                       source=str(trial.source))
+
+
+def raw_relative(model: Sequence[Setting], trial: Trial) -> Model:
+    """`model` with every non-zero joint offset made relative to the raw recording. The loader moved the tip
+    track of a rod recorded inside the object out of it (`StartClearance.shift`: a simulation cannot start in
+    penetration); a model that says where the rod really was (true = raw + offset) replaces that repair, so the
+    same offset means the same rod in every recording, repaired or not. At zero the repair stays: no offset is
+    the recording as the loader made it replayable."""
+    from dataclasses import replace
+
+    from ..recording.adjustments import StartClearance
+
+    shifts = {joint: value for a in trial.adjustments if isinstance(a, StartClearance) and a.moved
+              for joint, value in zip(a.joints, a.shift)}
+    if not shifts:
+        return tuple(model)
+    return tuple(replace(s, value=float(s.value) - shifts[s.target])
+                 if s.kind == "joint_offset" and s.target in shifts and float(s.value) != 0.0 else s for s in model)

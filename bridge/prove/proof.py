@@ -93,14 +93,14 @@ def _mismatched_cases(size: str, seed: int) -> list[Case]:
     if size != "full":
         raise DiagnosisError(f"unknown proof size {size!r}; sizes: {', '.join(SIZES)}")
     cases = []
-    for s in (1, 2):
+    for s in (1, 2):  # seed by seed, so that a run cut short still covers every effect, magnitude and shape
         pairs = [(m, e) for m in MAGNITUDES for e in MISMATCHED_EFFECTS]
         cases += [Case(f"mit_{MISMATCHED_SHAPES[(k + s) % len(MISMATCHED_SHAPES)]}", e, m, seed + s, "mismatched")
                   for k, (m, e) in enumerate(pairs)]
         cases += [Case(f"mit_{shape}", "none", "medium", seed + s, "mismatched") for shape in MISMATCHED_SHAPES]
-    # the tabletop (the small box on the table, the rod 3 cm above it; recording folders), every effect it can
-    # show, medium, one seed
-    cases += [Case("tabletop", e, "medium", seed + 1, "mismatched") for e in TABLETOP_MISMATCHED]
+        if s == 1:  # the tabletop (the small box on the table, the rod 3 cm above it; recording folders): every
+            # effect it can show, medium
+            cases += [Case("tabletop", e, "medium", seed + 1, "mismatched") for e in TABLETOP_MISMATCHED]
     return cases
 
 

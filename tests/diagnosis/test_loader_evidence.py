@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from bridge.diagnosis.effects import Evidence, get_effect
-from bridge.diagnosis.identify import Identification, Scored, _with_raw_offset
-from bridge.diagnosis.loader import NOISE_SIGMAS, raw_offsets, read_adjustments
+from bridge.diagnosis.identify import Identification, Scored
+from bridge.diagnosis.loader import NOISE_SIGMAS, read_adjustments
 from bridge.diagnosis.locate import Localisation
 from bridge.diagnosis.report import diagnosis_json, report_markdown, validate
 from bridge.diagnosis.runs import prepare
@@ -101,20 +101,31 @@ def test_diagnosis_json_and_report_carry_the_adjustments_and_the_evidence(mit_pu
     assert "## What the loader changed" in markdown and "6.00 mm inside" in markdown and sentence in markdown
 
     # the pusher_offset effect starts its search at the offset the penetration implies, and is favoured
-    shift = loader.mean_shift([prepared[0].name])
     ev = Evidence((), prepared[0].world, mit_odb, started_inside=len(loader.inside) / len(loader.readings),
-                  loader_offset=estimate, loader_shift=shift)
+                  loader_offset=estimate)
     effect = get_effect("pusher_offset")
     seeds = effect.seeds(ev, "pusher")
-    assert seeds[2] == pytest.approx({"joint_offset[pusher_x]": estimate["pusher_x"],
+    assert seeds[1] == pytest.approx({"joint_offset[pusher_x]": estimate["pusher_x"],
                                       "joint_offset[pusher_y]": estimate["pusher_y"]})
     assert effect.signature(ev, "pusher") > effect.signature(replace(ev, started_inside=0.0), "pusher")
-    # a fitted offset is reported relative to the raw recording: the fitted value plus the loader's shift
-    fitted = {"joint_offset[pusher_x]": 0.0005, "joint_offset[pusher_y]": -0.0002}
-    raw = raw_offsets(fitted, shift)
-    assert raw["pusher_x"] == pytest.approx(0.0005 + shift["pusher_x"])
-    s = _with_raw_offset(replace(none, effect="pusher_offset", target="pusher", params=fitted), shift)
-    assert s.derived["raw pusher_y mm"] == pytest.approx(1e3 * (-0.0002 + shift["pusher_y"]))
+
+
+def test_a_rod_offset_replaces_the_loaders_repair_so_it_means_the_same_rod_in_every_recording(mit_push_root, mit_odb):
+    """A fitted offset is relative to the raw recording: in a recording the loader moved out of the object the
+    offset replaces that shift (true = raw + D), in one it did not it is added as it is; no offset (0) keeps the
+    loader's repair."""
+    from bridge.params import Setting, trial_rollout
+
+    push = load_push(mit_push_root / "train" / RECT1[0])
+    planted, _ = _planted(push, load_outline("rect1", mit_push_root))
+    moved, kept = _trial(planted, mit_odb), _trial(push, mit_odb)
+    D = {"pusher_x": 0.004, "pusher_y": -0.003}
+    model = tuple(Setting("joint_offset", j, v) for j, v in D.items())
+    for trial, raw in ((moved, planted.tip_xy[0]), (kept, push.tip_xy[0])):
+        tip = trial_rollout(trial, model, mit_odb).telemetry.positions[0]
+        np.testing.assert_allclose(tip, raw + np.array([D["pusher_x"], D["pusher_y"]]), atol=1e-12)
+    repaired = trial_rollout(moved, (Setting("joint_offset", "pusher_x", 0.0),), mit_odb).telemetry.positions[0]
+    np.testing.assert_allclose(repaired, moved.telemetry.positions[0], atol=1e-12)
 
 
 def test_the_contact_gaps_of_real_pushes_recover_a_planted_offset_and_an_outline_error(mit_push_root, mit_odb):

@@ -32,13 +32,12 @@ class Evidence:
     world: WorldState
     odb: ObjectDatabase
     force_scale: float | None = None  # observed / simulated force on the robot while it pushes (None: no sensor)
-    # what the loader changed (`bridge.diagnosis.loader`): the share of recordings whose rod started inside the
-    # object beyond the noise, the calibration offset those penetrations imply and the loader's mean tip shift
-    # over the fitted recordings (m per robot joint; a fit starts from the shifted telemetry)
+    # what the loader's evidence says (`bridge.diagnosis.loader`): the share of recordings whose rod started inside
+    # the object beyond the noise, the calibration offset the evidence implies (m per robot joint, relative to the
+    # raw recording), whether it shows before any simulation (start penetrations, contact gaps)
     started_inside: float = 0.0
     loader_offset: Mapping[str, float] | None = None
-    loader_shift: Mapping[str, float] = field(default_factory=dict)
-    offset_evident: bool = False  # a rod offset shows before any simulation (start penetrations, contact gaps)
+    offset_evident: bool = False
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))

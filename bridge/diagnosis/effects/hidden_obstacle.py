@@ -17,6 +17,7 @@ from ...sim.extras import WeldedShape
 from .base import Effect, Evidence, Recovery, Truth, pname
 
 SIZES = (0.02, 0.03, 0.045)  # m: the proof's boxes (small, medium, large)
+LATERAL = 0.015  # m: seeds beside the jam's spot, across the push (a post's radius)
 
 
 class HiddenObstacle(Effect):
@@ -62,12 +63,18 @@ class HiddenObstacle(Effect):
         if not spots:
             return []
         spots = np.array(spots)
+        middle = np.median(spots, axis=0)
+        candidates = [middle] + list(spots[:3])
+        if jams:  # the post may touch the leading face anywhere along it: beside the median spot too
+            d = np.mean([f["direction"] for f in jams], axis=0)
+            e = np.array([-d[1], d[0]]) / (np.linalg.norm(d) or 1.0)
+            candidates[1:1] = [middle + LATERAL * e, middle - LATERAL * e]
         seeds, seen = [], []
-        for s in [np.median(spots, axis=0)] + [s for s in spots[:3]]:
+        for s in candidates:
             if all(np.linalg.norm(s - q) > 0.01 for q in seen):
                 seen.append(s)
                 seeds.append({pname("obstacle_x", target): float(s[0]), pname("obstacle_y", target): float(s[1])})
-        return seeds[:3]
+        return seeds[:5 if jams else 3]
 
     # --- the proof: a welded box of random size and yaw; the model places a post ------------------------------
     def draw_truth(self, scene, odb, rng, magnitude, sign):

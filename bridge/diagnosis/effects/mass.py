@@ -50,9 +50,12 @@ class Mass(Effect):
         mu_o = odb.get(world.objects[target].type).physics.friction
         pair = combined_friction(mu_o, odb.get(world.objects[surface].type).physics.friction)
         for share in (1 / 3, 1 / 2, 2 / 3):
+            wanted = pair * scale ** (1 - share)
+            # the surface's coefficient alone reaches a pair below 2 mu_object; beyond, both take the pair's value
+            mu = {target: mu_o, surface: float(surface_friction_for(wanted, mu_o))} if wanted < 1.8 * mu_o else \
+                {target: wanted, surface: wanted}
             seeds.append({mass.name: float(min(max(scale ** share * mass.start, lo), hi)),
-                          pname("mass_spread", target): 0.0,
-                          pname("friction", surface): float(surface_friction_for(pair * scale ** (1 - share), mu_o))})
+                          pname("mass_spread", target): 0.0, **{pname("friction", k): v for k, v in mu.items()}})
         return seeds
 
     def signature(self, evidence: Evidence, target: str) -> float:

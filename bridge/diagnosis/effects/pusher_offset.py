@@ -58,18 +58,13 @@ class PusherOffset(Effect):
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
         """The null offset and, when the loader's evidence implies one (start penetrations, contact gaps), that
-        offset: as it is (what the recordings the loader did not shift need) and less the loader's mean shift (what the
-        fitted, partly shifted, telemetry needs on average)."""
+        offset (relative to the raw recording, as every fitted offset: `params.model.raw_relative`)."""
         null = self.null_values(evidence.world, evidence.odb, target)
         if not evidence.loader_offset:
             return [null]
         names = {j: pname("joint_offset", j) for _, j in self.members(evidence.world, evidence.odb, target)}
         raw = {names[j]: v for j, v in evidence.loader_offset.items() if j in names}
-        if not raw:
-            return [null]
-        less = {names[j]: v - evidence.loader_shift.get(j, 0.0) for j, v in evidence.loader_offset.items()
-                if j in names}
-        return [null, {**null, **less}, {**null, **raw}]
+        return [null, {**null, **raw}] if raw else [null]
 
     # --- the proof: the robot's base mounted off by (dx, dy); the model offsets the joint readings --------------
     def draw_truth(self, scene, odb, rng, magnitude, sign):
