@@ -34,61 +34,39 @@ PRIOR = 1.0  # chi^2 per squared normalised unit towards the world model's value
 TRUST = 3.0  # normalised units: the largest change of a parameter a leave-one-out step may make
 
 
-CHANNELS = ("poses", "force")
-ACTIVE_RMS = 1.5  # a channel whose floor predicts it within this many noise floors carries nothing to explain
-
-
 @dataclass(frozen=True)
 class Prediction:
-    """A model's predictions of recordings it was not fitted on, by recording name: (chi^2, samples) of the poses
-    and of the robot's force (0, 0 without a force sensor)."""
+    """A model's predictions of recordings it was not fitted on: (chi^2, samples) per recording, by name (poses
+    and the robot's force together, each normalised by its noise)."""
 
-    each: dict[str, tuple[float, int, float, int]]
-
-    @classmethod
-    def of(cls, each: dict[str, tuple]) -> "Prediction":
-        """From (chi^2, samples) of the poses, optionally followed by (chi^2, samples) of the force."""
-        return cls({k: (float(v[0]), int(v[1]), *((float(v[2]), int(v[3])) if len(v) > 2 else (0.0, 0)))
-                    for k, v in each.items()})
-
-    def channel(self, k: int) -> dict[str, tuple[float, int]]:
-        return {name: (v[2 * k], v[2 * k + 1]) for name, v in self.each.items() if v[2 * k + 1] > 0}
+    each: dict[str, tuple[float, int]]
 
     def excess(self) -> float:
-        """chi^2 above the sensor noise, summed over the recordings and channels (each at least its noise level)."""
-        return float(sum(max(c - n, 0.0) for k in range(len(CHANNELS)) for c, n in self.channel(k).values()))
+        """chi^2 above the sensor noise, summed over the recordings (each at least its noise level)."""
+        return float(sum(max(c - n, 0.0) for c, n in self.each.values()))
 
     @property
     def chi2(self) -> float:
-        return float(sum(v[0] + v[2] for v in self.each.values()))
+        return float(sum(c for c, _ in self.each.values()))
 
     @property
     def n(self) -> int:
-        return int(sum(v[1] + v[3] for v in self.each.values()))
+        return int(sum(n for _, n in self.each.values()))
 
-    def compare(self, floor: "Prediction") -> tuple[float, list[tuple[str, float, float]]]:
-        """(share of the floor's excess this model removes, [(channel, gains, losses)]): each channel (poses,
-        force) counted in units of the floor's excess in it, the share averaged over the channels in which the
-        floor leaves something to explain (its RMS above ACTIVE_RMS noise floors): a channel of thousands of pose
-        samples a mismatched world leaves at ten noise floors does not drown a force that jammed against an
-        obstacle or doubled with the mass. Within a channel the recordings are summed, each recording's chi^2
-        floored at its noise level first (a recording at the noise floor under both models is a tie)."""
-        shares, channels = [], []
-        for k, label in enumerate(CHANNELS):
-            mine, base = self.channel(k), floor.channel(k)
-            common = [name for name in mine if name in base]
-            excess = sum(max(base[name][0] - base[name][1], 0.0) for name in common)
-            chi2, n = sum(base[name][0] for name in common), sum(base[name][1] for name in common)
-            if not common or excess <= 0 or chi2 <= ACTIVE_RMS ** 2 * n:
-                continue
-            g = l = 0.0
-            for name in common:
-                (c, m), (b, _) = mine[name], base[name]
-                d = max(b, m) - max(c, m)
-                g, l = g + max(d, 0.0), l + max(-d, 0.0)
-            shares.append((g - l) / excess)
-            channels.append((label, g / excess, l / excess))
-        return (float(np.mean(shares)) if shares else 0.0), channels
+    def compare(self, floor: "Prediction") -> tuple[float, float, float]:
+        """(share of the floor's excess this model removes, its gains, its losses), all in units of the floor's
+        excess over the recordings both predicted, each recording's chi^2 floored at its noise level first (a
+        recording at the noise floor under both models is a tie)."""
+        common = [name for name in self.each if name in floor.each]
+        excess = sum(max(floor.each[name][0] - floor.each[name][1], 0.0) for name in common)
+        if excess <= 0:
+            return 0.0, 0.0, 0.0
+        gains = losses = 0.0
+        for name in common:
+            (c, n), (b, _) = self.each[name], floor.each[name]
+            d = max(b, n) - max(c, n)
+            gains, losses = gains + max(d, 0.0), losses + max(-d, 0.0)
+        return (gains - losses) / excess, gains / excess, losses / excess
 
 
 def leave_one_out_points(result: FitResult) -> list[np.ndarray]:
@@ -127,5 +105,4 @@ def predict_left_out(runner: Runner, ev: Evaluator, result: FitResult) -> tuple[
 
 def prediction(runs: Sequence[Run]) -> Prediction:
     """The cross-validated predictions, one run per recording (each from a fit that did not see it)."""
-    return Prediction({r.trial: (r.chi2 - r.force_chi2, int(r.normalised.size) - r.force_n, r.force_chi2, r.force_n)
-                       for r in runs})
+    return Prediction({r.trial: (r.chi2, int(r.normalised.size)) for r in runs})

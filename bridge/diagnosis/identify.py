@@ -14,7 +14,7 @@ Recipe (`identify`):
 4. fit the best screened candidates fully with the friction coefficients (Levenberg-Marquardt);
 5. cross-validate (`crossval`): every model worth its parameters predicts each recording it was not fitted on;
 6. the verdict: the effect that predicts best among those that remove at least CV_GAIN of what the ordinary model
-   leaves (poses and force balanced), lose at most CV_LOSS of what they gain, and agree with the evidence;
+   leaves, lose at most CV_LOSS of what they gain, and agree with the evidence;
    else the ordinary model (`friction`, or `none`). Report winner, runner-up, margin, parameters and their
    uncertainty (curvature).
 """
@@ -46,7 +46,7 @@ NEAR_NOISE_GAIN = 0.5  # the same when the simpler model is within NOISE_RMS of 
 #                        is as likely the start poses' error (read from noisy observations) as missing physics
 CV_GAIN = 0.25  # share of the ordinary model's cross-validated excess chi^2 an effect must remove
 CV_LOSS = 0.5  # what an effect may lose on the recordings it predicts worse, as a share of what it gains ...
-LOSS_ALLOWANCE = 0.05  # ... in each channel, plus this share of the floor's excess there (noise, not a trade)
+LOSS_ALLOWANCE = 0.05  # ... plus this share of the floor's excess (the refit's noise, not a trade)
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
 
 
@@ -72,7 +72,6 @@ class Candidate:
     screened_chi2: float = math.inf
     start: dict[str, float] = field(default_factory=dict)  # the screened point, by parameter name
     note: str = ""
-    gain: float = math.nan  # share of the friction model's excess the screened point removes, channels balanced
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,7 +100,6 @@ class Scored:
     cv: Prediction | None = None  # every recording predicted by the model fitted without it (`crossval`)
     cv_share: float | None = None  # of the floor's cross-validated excess chi^2, the share this model removes
     contradicted: str | None = None  # why direct evidence (the loader's, before any simulation) rules it out
-    fitted: Prediction | None = None  # the fitted recordings as one: chi^2 and samples of poses and force
 
     @property
     def rms(self) -> float:
@@ -128,8 +126,8 @@ class Scored:
         if self.cv is not None and self.cv.n:
             out["cv"] = {"rms_sigma": round(math.sqrt(self.cv.chi2 / self.cv.n), 3), "recordings": len(self.cv.each),
                          "excess_reduction": round(self.cv_share, 4) if self.cv_share is not None else None,
-                         "rms_sigma_each": {k: round(math.sqrt((c + fc) / (n + fn)), 3) if n + fn else None
-                                            for k, (c, n, fc, fn) in self.cv.each.items()}}
+                         "rms_sigma_each": {k: round(math.sqrt(c / n), 3) if n else None
+                                            for k, (c, n) in self.cv.each.items()}}
         return out
 
 
@@ -223,8 +221,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
                         loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
                         loader.offset_estimate(), loader.offset_evident)
-    none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs),
-                  fitted=_pooled(loc.runs))
+    none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
         + (f"; the robot's force {loc.force_scale():.2f}x the simulated one, above the noise in "
@@ -268,7 +265,6 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
 
     # 3. screen candidates (each together with the friction coefficients), likely ones first
     screened = []
-    reference_runs = ev.runs(friction_scored.model) if base_fit.chi2 <= none_chi2 else tuple(loc.runs)
     fitted_friction = base_fit.values()  # every candidate starts from the fitted coefficients
     nominal_friction = {p.name: p.start for p in friction_params}
     for k, c in enumerate(candidates):
@@ -298,16 +294,16 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
             y, c2 = screen(ev, space, x, free=free)
             if c2 < chi2:
                 x, chi2 = y, c2
-        gain = prediction(ev.runs(_model(space, x))).compare(prediction(reference_runs))[0]
-        screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x)), gain=gain))
-        say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f}, "
-            f"removes {100 * gain:.0f} % of the friction model's excess [{runner.simulations} simulations]")
+        screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x))))
+        say(f"screen {c.effect} ({c.target}): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f} "
+            f"[{runner.simulations} simulations]")
         advance()
 
+    reference = min(none_chi2, base_fit.chi2)
+
     def rank_key(c: Candidate) -> float:
-        # the share of the friction model's excess it removes, poses and force balanced (`Prediction.compare`):
-        # < 0 when the screen made it worse
-        return -(c.gain * (0.5 + 0.5 * c.prior))
+        gain = (reference - c.screened_chi2) / max(reference, 1e-12)  # < 0: the screen made it worse
+        return -(gain * (0.5 + 0.5 * c.prior))
 
     order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
     full = order[:options.max_full_fits]
@@ -427,15 +423,7 @@ def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) ->
     derived = get_effect(effect).describe(world, odb, target, params)
     return Scored(effect, target, params, {p.name: std[p.name] for p in own}, result.model(), result.space.dim,
                   result.chi2, result.n, error=pose_error_of(result.runs), derived=derived,
-                  evaluations=result.evaluations, model_std=std, at_bound=result.at_bound(),
-                  fitted=_pooled(result.runs))
-
-
-def _pooled(runs: Sequence[Run]) -> Prediction:
-    """The runs of the fitted recordings as one entry (poses and force apart), for `Prediction.compare`."""
-    p = prediction(runs)
-    return Prediction({"fitted": tuple(float(sum(v[k] for v in p.each.values())) if k % 2 == 0 else
-                                       int(sum(v[k] for v in p.each.values())) for k in range(4))})
+                  evaluations=result.evaluations, model_std=std, at_bound=result.at_bound())
 
 
 def _score(models: Sequence[Scored], tau: float) -> list[Scored]:
@@ -472,10 +460,7 @@ def _fit_reason(s: Scored, none: Scored, friction: Scored | None, world, odb) ->
     if s.effect not in ("none", "friction") and get_effect(s.effect).negligible(world, odb, s.target, s.params):
         return f"{s.effect}'s parameters ({_fmt(s.params)}) are too small to matter physically"
     base = none if s.effect == "friction" or friction is None else friction
-    if s.fitted is not None and base.fitted is not None:  # poses and force balanced (`Prediction.compare`)
-        gain = s.fitted.compare(base.fitted)[0]
-    else:
-        gain = (base.chi2 - s.chi2) / max(base.chi2 - base.n, 1e-12)
+    gain = (base.chi2 - s.chi2) / max(base.chi2 - base.n, 1e-12)
     if gain < (MIN_GAIN if base.rms >= NOISE_RMS else NEAR_NOISE_GAIN):
         return f"{s.effect} removes only {100 * gain:.0f} % of the residual above the noise that {base.effect} leaves"
     return None
@@ -509,17 +494,16 @@ def _cv_reason(s: Scored, floor: Scored) -> str | None:
         return None  # nothing to cross-validate on (one recording): the fit's criteria alone decide
     if s.cv is None:
         return f"{s.effect} was not cross-validated (its fit is not worth its parameters against {floor.effect})"
-    share, channels = s.cv.compare(floor.cv)
+    share, gains, losses = s.cv.compare(floor.cv)
     if floor.cv.excess() <= 0.0:
         return f"{floor.effect} already predicts every recording it was not fitted on to the noise floor"
     if share < CV_GAIN:
         return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
                 f"fitted on (cross-validated; at least {100 * CV_GAIN:.0f} % needed)")
-    for label, gains, losses in channels:
-        if losses > CV_LOSS * gains + LOSS_ALLOWANCE:
-            return (f"{s.effect} predicts the {label} of some recordings worse than {floor.effect} (it loses "
-                    f"{100 * losses:.0f} % of {floor.effect}'s excess there, against {100 * gains:.0f} % it gains "
-                    f"on the others, cross-validated; at most {CV_LOSS:.0%} of the gain)")
+    if losses > CV_LOSS * gains + LOSS_ALLOWANCE:
+        return (f"{s.effect} predicts some recordings worse than {floor.effect} (it loses {100 * losses:.0f} % of "
+                f"{floor.effect}'s excess on them, against {100 * gains:.0f} % it gains on the others, "
+                f"cross-validated; at most {CV_LOSS:.0%} of the gain)")
     return None
 
 
