@@ -143,3 +143,29 @@ def test_a_null_setting_replays_as_the_world_model(rollout, world, odb):
     a, b = run_rollout(apply_model(model, rollout, odb), odb, options), run_rollout(rollout, odb, options)
     for name, track in b.tracks.items():
         assert np.array_equal(a.tracks[name], track)
+
+
+def test_a_joint_offset_is_relative_to_the_raw_recording_in_every_trial(world, odb):
+    """The loader moved one recording's tip out of the object (`StartClearance.shift`); an offset says where the
+    rod really was relative to the raw recording, so it replaces that shift there and is added as it is where
+    nothing was moved; zero keeps the loader's repair."""
+    from pathlib import Path
+
+    from bridge.params import trial_rollout
+    from bridge.recording.adjustments import StartClearance
+    from bridge.rollout.trials import Trial
+
+    telemetry = push_telemetries()["slide"]
+    shift = (0.002, -0.001)
+    moved = Trial("moved", world, telemetry.with_offsets({"pusher_x": shift[0], "pusher_y": shift[1]}), None,
+                  Path("moved"), adjustments=(StartClearance("small_box", -0.002, (1.0, 0.0), shift, 1e-4, 0.05),))
+    kept = Trial("kept", world, telemetry, None, Path("kept"))
+    offset = (Setting("joint_offset", "pusher_x", 0.005), Setting("joint_offset", "pusher_y", 0.0))
+    for trial in (moved, kept):
+        tel = trial_rollout(trial, offset, odb).telemetry
+        columns = [tel.joint_names.index(j) for j in ("pusher_x", "pusher_y")]
+        raw = telemetry.positions[:, [telemetry.joint_names.index(j) for j in ("pusher_x", "pusher_y")]]
+        # x: raw + 5 mm in both; y: zero offset keeps what the loader made (the repair in the moved one)
+        np.testing.assert_allclose(tel.positions[:, columns[0]], raw[:, 0] + 0.005, atol=1e-12)
+        expected_y = raw[:, 1] + (shift[1] if trial is moved else 0.0)
+        np.testing.assert_allclose(tel.positions[:, columns[1]], expected_y, atol=1e-12)
