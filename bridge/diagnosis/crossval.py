@@ -16,8 +16,11 @@ Jacobian differenced at the optimum):
 (x in normalised units, 0 = the world model's value), then replayed on recording k in Drake: the prediction
 is a real simulation, only the refit is linearised. PRIOR pulls a parameter that the other recordings do not
 constrain back towards the world model (an obstacle only recording k met goes back out of the way), so no
-recording predicts itself through the parameters it alone determined. TRUST bounds the step to where a linear
-model of a contact simulation can be believed.
+recording predicts itself through the parameters it alone determined. TRUST bounds the step; a step longer
+than CHECK_STEP leaves the range where a linear model of a contact simulation can be believed (a tilt near the
+friction cone, a patch's edge) and is checked on the other recordings, as a trust-region refit would check it:
+kept if their objective falls as promised, else halved (in the matched proof a friction patch refitted without
+the push that crossed its edge was predicted as if the patch were gone, a step the other pushes refused).
 """
 from __future__ import annotations
 
@@ -32,6 +35,10 @@ from .search import Evaluator, FitResult, differenced
 
 PRIOR = 1.0  # chi^2 per squared normalised unit towards the world model's value (a unit is a parameter's step)
 TRUST = 3.0  # normalised units: the largest change of a parameter a leave-one-out step may make
+CHECK_STEP = 1.0  # normalised units: a longer step leaves the linear model's range (a unit is what the Jacobian's
+# differences span) and is checked on the other recordings (`_checked`)
+ACCEPT = 0.25  # share of the promised decrease a checked step must deliver: the usual trust-region ratio
+HALVINGS = 2  # a checked step that fails is halved this many times before the optimum is kept
 
 
 @dataclass(frozen=True)
@@ -53,23 +60,28 @@ class Prediction:
     def n(self) -> int:
         return int(sum(n for _, n in self.each.values()))
 
-    def compare(self, floor: "Prediction") -> tuple[float, float, float]:
-        """(share of the floor's excess this model removes, its gains, its losses), all in units of the floor's
-        excess over the recordings both predicted, each recording's chi^2 floored at its noise level first (a
-        recording at the noise floor under both models is a tie)."""
-        common = [name for name in self.each if name in floor.each]
-        excess = sum(max(floor.each[name][0] - floor.each[name][1], 0.0) for name in common)
-        if excess <= 0:
-            return 0.0, 0.0, 0.0
-        gains = losses = 0.0
-        for name in common:
-            (c, n), (b, _) = self.each[name], floor.each[name]
-            d = max(b, n) - max(c, n)
-            gains, losses = gains + max(d, 0.0), losses + max(-d, 0.0)
-        return (gains - losses) / excess, gains / excess, losses / excess
+    def compare(self, floor: "Prediction") -> float:
+        """The share of the floor's chi^2 above the noise this model removes, as a geometric mean over the
+        recordings both predicted: 1 - exp(mean_k log(max(c_k, n_k) / max(b_k, n_k))), each chi^2 floored at its
+        noise level n_k, over the recordings above the noise under either model (one at the floor under both is a
+        tie, no evidence). Every recording weighs alike: one whose leave-one-out refit went wrong (a tilt near the
+        friction cone refitted from the two other pushes) cannot outvote the rest, nor can one recording's gain
+        carry recordings the model predicts worse (a patch placed where only that push went). Negative: worse."""
+        logs = [np.log(max(c, n) / max(floor.each[name][0], n)) for name, (c, n) in self.each.items()
+                if name in floor.each and max(c, floor.each[name][0]) > n]
+        return float(1.0 - np.exp(np.mean(logs))) if logs else 0.0
 
 
-def leave_one_out_points(result: FitResult) -> list[np.ndarray]:
+@dataclass(frozen=True)
+class LeftOut:
+    """The refit without one recording: its point, and the decrease of the others' objective (their chi^2 plus
+    the prior) that the linear model promises for the step from the optimum."""
+
+    x: np.ndarray
+    promised: float
+
+
+def leave_one_out_points(result: FitResult) -> list[LeftOut]:
     """x without each training recording (the module's step), from `result`'s Jacobian at its optimum, one point
     per recording in the order of `result.runs`."""
     J, r, x = result.jacobian, result.vector, result.x
@@ -80,27 +92,59 @@ def leave_one_out_points(result: FitResult) -> list[np.ndarray]:
     sizes = [run.normalised.size for run in result.runs]
     edges = np.concatenate([[0], np.cumsum(sizes)])
     dim = x.size
-    points = []
+    out = []
     for k in range(len(sizes)):
         keep = np.ones(r.size, dtype=bool)
         keep[edges[k]:edges[k + 1]] = False
         A = np.vstack([J[keep], np.sqrt(PRIOR) * np.eye(dim)])
         b = np.concatenate([-r[keep], -np.sqrt(PRIOR) * x])
         step = lsq_linear(A, b, bounds=(lo, hi), method="bvls").x if dim else np.zeros(0)
-        points.append(x + step)
-    return points
+        out.append(LeftOut(x + step, float(b @ b - (A @ step - b) @ (A @ step - b))))
+    return out
+
+
+def _checked(ev: Evaluator, result: FitResult, left: list[LeftOut]) -> dict[int, Run]:
+    """The predictions of the recordings whose leave-one-out step is longer than CHECK_STEP, each step checked
+    on the other recordings as a trust-region refit would: kept when the others' objective falls by at least
+    ACCEPT of what the linear model promised, else halved (at most HALVINGS times); a step that never passes
+    means the others are content at the optimum, which is then the refit without the recording. Only the other
+    recordings decide, so no recording predicts itself. By position in `ev.indices`."""
+    x, space = result.x, result.space
+    base = [run.chi2 for run in result.runs]
+    prior = PRIOR * float(x @ x)
+    pending = {k: lo for k, lo in enumerate(left) if np.max(np.abs(lo.x - x), initial=0.0) > CHECK_STEP}
+    done: dict[int, Run] = {}
+    for _ in range(HALVINGS + 1):
+        if not pending:
+            break
+        keys = list(pending)
+        runs = ev.runs_many([space.model(space.from_normal(pending[k].x)) for k in keys])
+        for k, rs in zip(keys, runs):
+            lo = pending.pop(k)
+            fell = sum(base[j] - rs[j].chi2 for j in range(len(rs)) if j != k) + prior - PRIOR * float(lo.x @ lo.x)
+            if fell >= ACCEPT * lo.promised:
+                done[k] = rs[k]
+            else:
+                pending[k] = LeftOut(x + (lo.x - x) / 2, lo.promised / 2)  # a halved step promises about half
+    for k in pending:
+        done[k] = result.runs[k]
+    return done
 
 
 def predict_left_out(runner: Runner, ev: Evaluator, result: FitResult) -> tuple[FitResult, list[Run]]:
-    """Each training recording of `ev` replayed with the model refitted without it (`leave_one_out_points`);
-    returns `result` with its Jacobian differenced at the optimum (reused for the uncertainty) and the runs.
-    A model without parameters predicts with itself (its runs)."""
+    """Each training recording of `ev` replayed with the model refitted without it (`leave_one_out_points`,
+    long steps `_checked`); returns `result` with its Jacobian differenced at the optimum (reused for the
+    uncertainty) and the runs. A model without parameters predicts with itself (its runs)."""
     if result.space.dim == 0:
         return result, list(result.runs)
     result = differenced(ev, result)
-    points = leave_one_out_points(result)
-    pairs = [(result.space.model(result.space.from_normal(x)), index) for x, index in zip(points, ev.indices)]
-    return result, runner.run_pairs(pairs)
+    left = leave_one_out_points(result)
+    checked = _checked(ev, result, left)
+    short = [k for k in range(len(left)) if k not in checked]
+    runs = runner.run_pairs([(result.space.model(result.space.from_normal(left[k].x)), ev.indices[k])
+                             for k in short])
+    predicted = {**checked, **dict(zip(short, runs))}
+    return result, [predicted[k] for k in range(len(left))]
 
 
 def prediction(runs: Sequence[Run]) -> Prediction:

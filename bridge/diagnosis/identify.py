@@ -14,7 +14,7 @@ Recipe (`identify`):
 4. fit the best screened candidates fully with the friction coefficients (Levenberg-Marquardt);
 5. cross-validate (`crossval`): every model worth its parameters predicts each recording it was not fitted on;
 6. the verdict: the effect that predicts best among those that remove at least CV_GAIN of what the ordinary model
-   leaves, lose at most CV_LOSS of what they gain, and agree with the evidence;
+   leaves (a geometric mean over the recordings) and agree with the evidence;
    else the ordinary model (`friction`, or `none`). Report winner, runner-up, margin, parameters and their
    uncertainty (curvature).
 """
@@ -44,9 +44,8 @@ NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise 
 MIN_GAIN = 0.2  # share of the simpler model's excess chi^2 that extra parameters must remove
 NEAR_NOISE_GAIN = 0.5  # the same when the simpler model is within NOISE_RMS of the noise floor: what is left there
 #                        is as likely the start poses' error (read from noisy observations) as missing physics
-CV_GAIN = 0.25  # share of the ordinary model's cross-validated excess chi^2 an effect must remove
-CV_LOSS = 0.5  # what an effect may lose on the recordings it predicts worse, as a share of what it gains ...
-LOSS_ALLOWANCE = 0.05  # ... plus this share of the floor's excess (the refit's noise, not a trade)
+CV_GAIN = 0.25  # share of the ordinary model's cross-validated chi^2 above the noise an effect must remove
+#               (`Prediction.compare`: a geometric mean over the recordings)
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
 
 
@@ -494,16 +493,13 @@ def _cv_reason(s: Scored, floor: Scored) -> str | None:
         return None  # nothing to cross-validate on (one recording): the fit's criteria alone decide
     if s.cv is None:
         return f"{s.effect} was not cross-validated (its fit is not worth its parameters against {floor.effect})"
-    share, gains, losses = s.cv.compare(floor.cv)
     if floor.cv.excess() <= 0.0:
         return f"{floor.effect} already predicts every recording it was not fitted on to the noise floor"
+    share = s.cv.compare(floor.cv)
     if share < CV_GAIN:
         return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
-                f"fitted on (cross-validated; at least {100 * CV_GAIN:.0f} % needed)")
-    if losses > CV_LOSS * gains + LOSS_ALLOWANCE:
-        return (f"{s.effect} predicts some recordings worse than {floor.effect} (it loses {100 * losses:.0f} % of "
-                f"{floor.effect}'s excess on them, against {100 * gains:.0f} % it gains on the others, "
-                f"cross-validated; at most {CV_LOSS:.0%} of the gain)")
+                f"fitted on (cross-validated, the geometric mean over the recordings; at least "
+                f"{100 * CV_GAIN:.0f} % needed)")
     return None
 
 
@@ -529,9 +525,9 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
     - on the recordings it was fitted on, its extra parameters remove at least MIN_GAIN of the ordinary model's
       chi^2 above the noise floor (NEAR_NOISE_GAIN when that model is already within NOISE_RMS of the floor);
     - cross-validated (`crossval`: every recording predicted by the model fitted without it), it removes at
-      least CV_GAIN of the chi^2 above the noise that the floor leaves on those predictions, and what it loses
-      on the recordings it predicts worse is at most CV_LOSS of what it gains on the others.
-    The verdict is the accepted effect with the smallest cross-validated chi^2, else the floor. `friction` is
+      least CV_GAIN of the chi^2 above the noise that the floor leaves on those predictions (`compare`: the
+      geometric mean of the per-recording ratios, so every recording weighs alike).
+    The verdict is the accepted effect that removes the most, else the floor. `friction` is
     accepted over `none` by the same rules.
     """
     by = {s.effect: s for s in scored if s.effect in ("none", "friction")}
@@ -553,20 +549,21 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
         else:
             reasons.append(why)
     if accepted:
-        best = min(accepted, key=lambda m: (m.cv.excess() if m.cv is not None else -m.score))
+        best = max(accepted, key=lambda m: (m.cv.compare(floor.cv) if m.cv is not None and floor.cv is not None
+                                            else m.score))
         return best.effect, ("; ".join(reasons) + f"; {best.effect} is") if reasons else None, floor
     tail = "no effect of the catalog is confirmed" + ("" if floor is none else ", the fitted friction is the model")
     return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
 
 
 def _rank(scored: list[Scored], verdict: str, floor: Scored) -> list[Scored]:
-    """The verdict first, then the others by their cross-validated chi^2 (their score without one); each with
-    the share of the floor's cross-validated excess it removes."""
+    """The verdict first, then the others by the share of the floor's cross-validated excess they remove (their
+    score without one), each with that share."""
     from dataclasses import replace
 
     def key(s: Scored) -> tuple:
-        return (s.effect != verdict, s.cv is None, s.cv.excess() if s.cv is not None else -s.score)
-    shared = [replace(s, cv_share=s.cv.compare(floor.cv)[0]) if s.cv is not None and floor.cv is not None else s
+        return (s.effect != verdict, s.cv_share is None, -(s.cv_share if s.cv_share is not None else s.score))
+    shared = [replace(s, cv_share=s.cv.compare(floor.cv)) if s.cv is not None and floor.cv is not None else s
               for s in scored]
     return sorted(shared, key=key)
 

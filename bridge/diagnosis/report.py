@@ -9,7 +9,7 @@ from typing import Any, BinaryIO, Mapping, Sequence
 import numpy as np
 
 from ..files import Content, write_set
-from .identify import CV_GAIN, CV_LOSS, Identification, _error_json
+from .identify import CV_GAIN, Identification, _error_json
 from .locate import Localisation, LocatedObject
 
 SCHEMA_PATH = Path(__file__).with_name("diagnosis.schema.json")
@@ -59,7 +59,7 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
         "recordings": {"train": list(ident.train), "held_out": list(ident.held_out)},
         "noise": dict(noise or noise_summary(ident.localisation)),
         "cross_validation": ({"floor": ident.floor, "recordings": len(ident.train) + len(ident.held_out),
-                              "cv_gain": CV_GAIN, "cv_loss": CV_LOSS} if ident.floor is not None else None),
+                              "cv_gain": CV_GAIN} if ident.floor is not None else None),
         "correlation_time": round(ident.tau, 3),
         "scene_file": scene_file,
         "simulation_failures": dict(failures or {"count": 0, "first": []}),
@@ -148,8 +148,8 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
     if ident.floor is not None:
         lines += [f"Each recording is predicted by the model fitted without it (cross-validation); an effect must "
                   f"remove at least {100 * CV_GAIN:.0f} % of what the ordinary model (`{ident.floor}`) leaves on "
-                  f"those predictions above the noise floor, and lose on the recordings it predicts worse at most "
-                  f"{100 * CV_LOSS:.0f} % of what it gains on the others.", ""]
+                  f"those predictions above the noise floor (a geometric mean over the recordings: each weighs "
+                  f"alike).", ""]
     lines += ["| effect | target | score | k | rms/sigma | cross-validated rms/sigma | of the floor's excess | "
               "held-out e | parameters |", "|---|---|---|---|---|---|---|---|---|"]
     for s in ident.ranked:

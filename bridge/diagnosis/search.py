@@ -91,7 +91,9 @@ class FitResult:
         """The parameters a bound stopped: within AT_BOUND of it, and the Gauss-Newton step from the optimum (the
         minimum of chi^2's local quadratic model, all parameters together) lies beyond it. The data then ask for a
         value the parameter's physical range excludes: the model family, not the value, is what is wrong.
-        By name, the bound reached."""
+        Friction coefficients count only when every one of them is stopped: Drake combines a pair's two
+        coefficients (2 a b / (a + b)), so one of them on its bound while another is free still leaves the pair's
+        friction free (one coefficient saturates, the other sets the pair). By name, the bound reached."""
         if self.jacobian is None or self.space.dim == 0:
             return {}
         lower, upper = self.space.normal_bounds()
@@ -104,6 +106,9 @@ class FitResult:
                 out[p.name] = float(p.bounds[1])
             elif self.x[i] <= lower[i] + AT_BOUND and beyond[i] < lower[i]:
                 out[p.name] = float(p.bounds[0])
+        frictions = [p.name for p in self.space.free if p.kind.name == "friction"]
+        if not all(name in out for name in frictions):
+            out = {k: v for k, v in out.items() if k not in frictions}
         return out
 
     def std(self, inflate: float = 1.0) -> dict[str, float]:

@@ -4,7 +4,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from bridge.diagnosis.crossval import PRIOR, Prediction, leave_one_out_points
+from bridge.diagnosis.crossval import CHECK_STEP, PRIOR, Prediction, _checked, leave_one_out_points
 
 
 def _linear_fit(A: list[np.ndarray], y: list[np.ndarray], bounds=(-10.0, 10.0)):
@@ -29,9 +29,9 @@ def test_leave_one_out_points_are_the_refits_without_each_recording():
         # the same problem refitted without recording k, with the prior towards 0 that the step carries
         M = np.vstack(others + [np.sqrt(PRIOR) * np.eye(2)])
         exact = np.linalg.lstsq(M, np.concatenate(rhs + [np.zeros(2)]), rcond=None)[0]
-        assert np.allclose(points[k], exact, atol=1e-9), (k, points[k], exact)
+        assert np.allclose(points[k].x, exact, atol=1e-9), (k, points[k], exact)
     full = _linear_fit(A, y).x
-    assert np.linalg.norm(points[2] - full) > 2 * np.linalg.norm(points[0] - full)  # leaving the odd one out matters
+    assert np.linalg.norm(points[2].x - full) > 2 * np.linalg.norm(points[0].x - full)  # leaving the odd one out matters
 
 
 def test_a_parameter_only_the_left_out_recording_constrains_goes_back_to_the_world_models_value():
@@ -42,22 +42,45 @@ def test_a_parameter_only_the_left_out_recording_constrains_goes_back_to_the_wor
     fit = _linear_fit(A, y)
     assert abs(fit.x[1] - 2.0) < 1e-9
     points = leave_one_out_points(fit)
-    assert abs(points[0][1]) < 0.05 and abs(points[0][0] - 1.0) < 0.05
+    assert abs(points[0].x[1]) < 0.05 and abs(points[0].x[0] - 1.0) < 0.05
 
 
 def test_a_leave_one_out_step_stays_within_the_bounds():
     A = [np.ones((10, 1)), np.ones((10, 1))]
     y = [np.full(10, 0.0), np.full(10, 4.0)]
     points = leave_one_out_points(_linear_fit(A, y, bounds=(-1.0, 3.0)))
-    assert all(-1.0 - 1e-12 <= p[0] <= 3.0 + 1e-12 for p in points)
+    assert all(-1.0 - 1e-12 <= p.x[0] <= 3.0 + 1e-12 for p in points)
 
 
-def test_compare_counts_gains_and_losses_above_the_noise_floor():
+def _fake_evaluator(chi2_of_point):
+    """An Evaluator-like view whose recordings' chi^2 at a point are chi2_of_point(x) (a list, one per recording);
+    the model of a point is the point itself."""
+    def runs_many(models):
+        return [[SimpleNamespace(chi2=c, trial=j) for j, c in enumerate(chi2_of_point(np.array(m)))] for m in models]
+    return SimpleNamespace(runs_many=runs_many)
+
+
+def test_a_long_leave_one_out_step_the_other_recordings_refuse_keeps_the_optimum():
+    # the linear model promises the others a fall along a long step, but the true objective rises there (a contact
+    # simulation leaves its linear range): the refit without the recording stays at the optimum
+    x = np.array([0.0])
+    at_x = [SimpleNamespace(chi2=10.0, trial=j) for j in range(3)]
+    space = SimpleNamespace(model=lambda v: tuple(v), from_normal=lambda v: v)
+    result = SimpleNamespace(x=x, space=space, runs=at_x)
+    left = [SimpleNamespace(x=np.array([2.5]), promised=5.0)] + \
+        [SimpleNamespace(x=np.array([0.1]), promised=0.1)] * 2
+    rising = _fake_evaluator(lambda p: [10.0 + 40 * p[0] ** 2] * 3)
+    done = _checked(rising, result, left)
+    assert list(done) == [0] and done[0] is at_x[0]  # only the long step was checked, and refused every time
+    falling = _fake_evaluator(lambda p: [10.0 - 4 * p[0]] * 3)  # the others do gain along it: the step is kept
+    done = _checked(falling, result, left)
+    assert done[0] is not at_x[0] and done[0].trial == 0 and 2.5 > CHECK_STEP
+
+
+def test_compare_is_the_geometric_mean_of_the_recordings_ratios_above_the_noise_floor():
     n = 100
     floor = Prediction({"a": (900.0, n), "b": (500.0, n), "c": (80.0, n)})
     model = Prediction({"a": (100.0, n), "b": (600.0, n), "c": (90.0, n)})
-    share, gains, losses = model.compare(floor)
-    # in units of the floor's excess (1200): c, at 80 and 90, is at the noise floor (100) under both, a tie
-    assert abs(gains - 800.0 / 1200.0) < 1e-12 and abs(losses - 100.0 / 1200.0) < 1e-12
-    assert abs(share - 700.0 / 1200.0) < 1e-12
-    assert floor.excess() == 1200.0
+    # c, at 80 and 90, is at the noise floor (100) under both: a tie, left out; a: 9 -> 1, b: 5 -> 6 noise floors
+    assert abs(model.compare(floor) - (1.0 - ((100.0 / 900.0) * (600.0 / 500.0)) ** 0.5)) < 1e-12
+    assert floor.excess() == 1200.0 and floor.compare(floor) == 0.0

@@ -11,8 +11,9 @@ from bridge.prove.proof import SETTINGS, proof_cases, run_case
 
 # Cases the diagnosis does not get fully right in this revision: marked, not hidden (docs/diagnosis.md).
 KNOWN_MISSES = {
-    "tabletop-com_offset-large-1": "verdict right, but the offset inside the tall box is poorly constrained by "
-                                   "four pushes: fitted (-1.1, 1.4) mm against (-7.6, 2.4) mm",
+    "planar-com_offset-large-1": "pressure_distribution predicts as well (cross-validated 88.8 % against 88.0 % of "
+                                 "none's excess): the centre-of-mass fit stops at (-7.6, -0.8) mm against "
+                                 "(-15.2, 4.9) mm, the heavier slug's mass traded against friction",
 }
 CASES = proof_cases("small", world="both")  # the matched proof and the mismatched one (dataset-free: the steel block)
 PARAMS = [pytest.param(c, id=c.name, marks=[pytest.mark.xfail(reason=KNOWN_MISSES[c.name], strict=False)]
@@ -57,7 +58,7 @@ def test_concealed_effect_is_diagnosed(case, odb, proof_root, executor):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["planar-hidden_obstacle-large-1", "planar-com_offset-large-1"])
+@pytest.mark.parametrize("name", ["planar-hidden_obstacle-large-1", "planar-mass-large-1"])
 def test_scene_file_replays_the_diagnosed_model(name, odb, proof_root, executor):
     """The written scene.yaml, read as the parameter file it is and applied to a held-out recording, lowers that
     recording's error when replayed outside the diagnosis (the model is usable by infer, view, fit)."""
@@ -88,10 +89,21 @@ def test_scene_file_replays_the_diagnosed_model(name, odb, proof_root, executor)
 
 
 @pytest.mark.slow
-def test_the_proof_starts_no_case_after_its_time_limit(odb, tmp_path):
+def test_the_proof_starts_no_case_after_its_time_limit(odb, tmp_path, proof_root, executor, monkeypatch):
+    """The proof's bookkeeping around its cases (the cases themselves are diagnosed above: the clean one's real
+    result stands in for each, so this costs no diagnosis of its own)."""
+    import time
+
+    import bridge.prove.proof as proof_module
     from bridge.prove.proof import run_proof
     from bridge.prove.scenes import Case
 
+    clean = _result(next(c for c in CASES if c.name == "planar-none-medium-1"), odb, proof_root, executor)
+
+    def run_case(case, *args, **kwargs):
+        time.sleep(0.05)  # past the time limit once the first case is done
+        return clean
+    monkeypatch.setattr(proof_module, "run_case", run_case)
     cases = [Case("planar", "none", "medium", 2), Case("planar", "none", "medium", 3)]
     done, lines = [], []
     proof = run_proof(tmp_path, odb, cases=cases, workers=1, time_limit=0.01, log=lines.append,
