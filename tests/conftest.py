@@ -25,9 +25,10 @@ def _signal_handlers_kept(request):
 
 
 def pytest_collection_modifyitems(config, items):
-    """The proof first: it is the longest file by far, and with the tests spread over the cores file by file
-    (pytest-xdist, `--dist loadfile`) the other files then run beside it instead of after it."""
-    items.sort(key=lambda item: not item.nodeid.startswith("tests/prove/"))
+    """The proof's two halves first, one per core: they are the longest files by far, and with the tests spread
+    over the cores file by file (pytest-xdist, `--dist loadfile --no-loadscope-reorder`) the other files then run
+    beside them instead of after them."""
+    items.sort(key=lambda item: not item.nodeid.startswith("tests/prove/test_proof"))
 
 
 def find_mit_push() -> Path | None:
