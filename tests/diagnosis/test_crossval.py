@@ -84,3 +84,24 @@ def test_compare_is_the_geometric_mean_of_the_recordings_ratios_above_the_noise_
     # c, at 80 and 90, is at the noise floor (100) under both: a tie, left out; a: 9 -> 1, b: 5 -> 6 noise floors
     assert abs(model.compare(floor) - (1.0 - ((100.0 / 900.0) * (600.0 / 500.0)) ** 0.5)) < 1e-12
     assert floor.excess() == 1200.0 and floor.compare(floor) == 0.0
+
+
+def _pressing_fit(names: list[str], x: list[float]):
+    """A FitResult whose residual asks every parameter to grow past its upper bound 1 (x in normalised units)."""
+    from bridge.diagnosis.search import FitResult
+
+    free = [SimpleNamespace(name=n, bounds=(0.05, 1.5), kind=SimpleNamespace(name=n.split("[")[0])) for n in names]
+    space = SimpleNamespace(dim=len(names), free=free,
+                            normal_bounds=lambda: (np.zeros(len(names)), np.ones(len(names))))
+    J = np.eye(len(names))
+    return FitResult(space, np.array(x), np.array(x) - 2.0, J, (), 0)
+
+
+def test_a_friction_coefficient_on_its_bound_counts_only_when_every_one_is():
+    # Drake combines a pair's two coefficients: the surface's at 1.5 with the object's free leaves the pair free
+    one = _pressing_fit(["friction[surface]", "friction[block]"], [1.0, 0.4])
+    assert one.at_bound() == {}
+    both = _pressing_fit(["friction[surface]", "friction[block]"], [1.0, 1.0])
+    assert both.at_bound() == {"friction[surface]": 1.5, "friction[block]": 1.5}
+    effect = _pressing_fit(["friction[surface]", "com_x[block]"], [0.4, 1.0])  # an effect's own parameter counts
+    assert effect.at_bound() == {"com_x[block]": 1.5}
