@@ -88,9 +88,15 @@ class FitResult:
         return self.space.model(self.space.from_normal(self.x))
 
     def at_bound(self) -> dict[str, float]:
-        """The parameters a bound stopped: within AT_BOUND of it, and the Gauss-Newton step from the optimum (the
-        minimum of chi^2's local quadratic model, all parameters together) lies beyond it. The data then ask for a
-        value the parameter's physical range excludes: the model family, not the value, is what is wrong.
+        """The parameters a bound stopped: within AT_BOUND of it, the Gauss-Newton step from the optimum (the
+        minimum of chi^2's local quadratic model, all parameters together) lies beyond it, and going there would
+        pay for itself (`bound_gain`). The data then ask for a value the parameter's physical range excludes: the
+        model family, not the value, is what is wrong. Two kinds of bound do not count:
+        - one a step points past by noise alone (the gain test);
+        - one of a parameter that only says how another acts (`Kind.inert_without`: where a changed mass sits,
+          `mass_spread`), whose bound is itself a state the world takes (the weight at the very centre): in a
+          world that differs from the model elsewhere (a softer pusher) such a parameter is where the misfit
+          goes, and the value it qualifies (the mass) is still what the recordings say.
         Friction coefficients count only when every one of them is stopped: Drake combines a pair's two
         coefficients (2 a b / (a + b)), so one of them on its bound while another is free still leaves the pair's
         friction free (one coefficient saturates, the other sets the pair). By name, the bound reached."""
@@ -102,6 +108,8 @@ class FitResult:
         beyond = self.x + step
         out = {}
         for i, p in enumerate(self.space.free):
+            if p.kind.inert_without is not None:
+                continue
             if self.x[i] >= upper[i] - AT_BOUND and beyond[i] > upper[i]:
                 out[p.name] = float(p.bounds[1])
             elif self.x[i] <= lower[i] + AT_BOUND and beyond[i] < lower[i]:
@@ -109,7 +117,31 @@ class FitResult:
         frictions = [p.name for p in self.space.free if p.kind.name == "friction"]
         if not all(name in out for name in frictions):
             out = {k: v for k, v in out.items() if k not in frictions}
-        return out
+        groups = [[k] for k in out if k not in frictions] + ([frictions] if frictions and frictions[0] in out else [])
+        price = self.parameter_price()
+        kept = [k for group in groups if self.bound_gain(group) > price for k in group]
+        return {k: out[k] for k in kept}
+
+    def bound_gain(self, names: Sequence[str]) -> float:
+        """How much lower chi^2 (tau-discounted, like `bic`'s) would be if the parameters `names` could leave
+        their bounds: the local quadratic model's minimum with them held against the one with every parameter
+        free. A bound stops a fit only when this exceeds what BIC charges a parameter (`parameter_price`)."""
+        J, r = self.jacobian, self.vector
+        index = [i for i, p in enumerate(self.space.free) if p.name in set(names)]
+        rest = np.delete(J, index, axis=1)
+
+        def floor(A: np.ndarray) -> float:
+            if A.shape[1] == 0:
+                return float(r @ r)
+            s, *_ = np.linalg.lstsq(A, -r, rcond=None)
+            e = r + A @ s
+            return float(e @ e)
+
+        return (floor(rest) - floor(J)) / correlation_time(self.runs)
+
+    def parameter_price(self) -> float:
+        """What BIC charges one parameter on these samples: ln(n / tau) (`bic`)."""
+        return math.log(max(2.0, self.n / correlation_time(self.runs)))
 
     def std(self, inflate: float = 1.0) -> dict[str, float]:
         """1-sigma parameter uncertainty from the curvature: cov = (J^T J)^-1 * max(1, reduced chi^2) * inflate."""

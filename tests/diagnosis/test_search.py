@@ -64,6 +64,36 @@ def test_a_bound_that_stops_the_fit_is_named_and_one_that_does_not_is_not():
     assert FitResult(space, np.zeros(2), np.zeros(20), None, (), 0).at_bound() == {}
 
 
+def test_a_bound_pressed_for_less_than_a_parameter_is_worth_does_not_stop_the_fit():
+    """100 samples, one unit of noise each: a value just past the bound would lower chi^2 by 0.01, less than the
+    ln(100) BIC charges a parameter (noise points past bounds that the truth sits on); 3 units past, by 9."""
+    space = ParameterSet((Parameter(KINDS["force_x"], "a", bounds=(-1, 1), start=0.0, step=0.5),))
+    J = np.full((100, 1), 0.1)
+    upper = space.normal_bounds()[1]
+
+    def at(target):
+        result = FitResult(space, upper.copy(), J @ (upper - target), J, (), 0)
+        return result.at_bound(), result.bound_gain(["force_x[a]"])
+
+    assert at(upper + 0.1) == ({}, pytest.approx(0.01))
+    assert at(upper + 3.0) == ({"force_x[a]": 1.0}, pytest.approx(9.0))
+
+
+def test_where_a_changed_mass_sits_does_not_condemn_the_mass_on_its_bound():
+    """`mass_spread` = 0 (a weight at the very centre) is a state the world takes; the data asking for less
+    rotational inertia than that leave the mass itself standing. The mass on its bound still counts."""
+    space = ParameterSet((Parameter(KINDS["mass"], "a", bounds=(0.2, 5.0), start=1.0, step=0.3),
+                          Parameter(KINDS["mass_spread"], "a", bounds=(0.0, 1.5), start=1.0, step=0.5)))
+    lower, upper = space.normal_bounds()
+    J = np.tile(np.eye(2), (10, 1))
+
+    def at(x, target):
+        return FitResult(space, np.asarray(x, float), J @ (np.asarray(x, float) - target), J, (), 0).at_bound()
+
+    assert at([1.0, lower[1]], np.array([1.0, lower[1] - 3.0])) == {}
+    assert at([upper[0], lower[1]], np.array([upper[0] + 3.0, lower[1] - 3.0])) == {"mass[a]": 5.0}
+
+
 @pytest.fixture(scope="module")
 def friction_case(odb, tmp_path_factory):
     """Two generated pushes on a surface with twice the database's friction (real Drake), prepared."""
