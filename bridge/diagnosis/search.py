@@ -119,13 +119,14 @@ class FitResult:
             out = {k: v for k, v in out.items() if k not in frictions}
         groups = [[k] for k in out if k not in frictions] + ([frictions] if frictions and frictions[0] in out else [])
         price = self.parameter_price()
-        kept = [k for group in groups if self.bound_gain(group) > price for k in group]
+        kept = [k for group in groups if self.bound_gain(group) > price * len(group) for k in group]
         return {k: out[k] for k in kept}
 
     def bound_gain(self, names: Sequence[str]) -> float:
         """How much lower chi^2 (tau-discounted, like `bic`'s) would be if the parameters `names` could leave
         their bounds: the local quadratic model's minimum with them held against the one with every parameter
-        free. A bound stops a fit only when this exceeds what BIC charges a parameter (`parameter_price`)."""
+        free. A bound stops a fit only when this exceeds what BIC charges for as many parameters
+        (`parameter_price`)."""
         J, r = self.jacobian, self.vector
         index = [i for i, p in enumerate(self.space.free) if p.name in set(names)]
         rest = np.delete(J, index, axis=1)
