@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import DiagnosisError
 from ..params import Model, Parameter, ParameterSet
+from ..params.kinds import link_friction
 from ..params.surfaces import support_of
 from ..rollout.compare import PoseError
 from ..timelimit import STOPPED, TimeLimit
@@ -247,10 +248,10 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
             candidates.append(Candidate(name, target, float(effect.signature(evidence, target))))
     candidates.sort(key=lambda c: -c.prior)
     advance(2 + len(candidates) + min(options.max_full_fits, len(candidates)))
-    # 2. the ordinary parameters: friction of the object carrying the residual and of the surface it slides on
-    #    (Drake combines the two per pair: the surface's value changes only that pair, the object's every pair)
-    friction_targets = [t for t in (support_of(world, odb, focus[0]), focus[0]) if t]
-    friction_params = [Parameter.of("friction", t, world, odb, effect="friction") for t in friction_targets]
+    # 2. the ordinary parameters: the friction of the object carrying the residual, as the coefficients of its two
+    #    pairs (with the surface it slides on, with the robot's links), which the physics has independent
+    #    (`kinds.PairFriction`); the object's own coefficient where it has neither
+    friction_params = _friction_parameters(world, odb, focus[0])
     base_space = ParameterSet(tuple(friction_params), "the ordinary parameters")
     # its Jacobian at the optimum is differenced: the screens below start there, and a candidate at its null
     # values is this model (`Evaluator.canonical`), so their Jacobians' friction columns are these
@@ -324,7 +325,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                      optimizer=options.optimizer, should_stop=limit.expired)
         fits[(c.effect, c.target)] = result
         scored = _held_out(runner, held_out, [_from_fit(c.effect, c.target, result, world, odb)])[0]
-        frictions = {s.name: s.value for s in scored.model if s.kind == "friction" and s.effect == "friction"}
+        frictions = {s.name: s.value for s in scored.model if s.effect == "friction"}
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
         x_f = base_space.to_normal(frictions)
@@ -381,6 +382,17 @@ def _winner_uncertainty(ev: Evaluator, scored: list[Scored], verdict: str, fits:
     return [replace(s, std={k: std[k] for k in s.std}, model_std=std) if s is winner else s for s in scored]
 
 
+def _friction_parameters(world, odb, target: str) -> list[Parameter]:
+    """The ordinary parameters of `target`: its sliding pair's coefficient and its robot pairs' factor; its own
+    coefficient instead of the factor when the robot's model gives its links none (the sliding pair, realised
+    after it, stays what it says), and alone when it rests on no fixture."""
+    if support_of(world, odb, target) is None:
+        kinds = ["friction"]
+    else:
+        kinds = ["sliding_friction", "robot_friction" if link_friction(world, odb) else "friction"]
+    return [Parameter.of(kind, target, world, odb, effect="friction") for kind in kinds]
+
+
 def _with_friction(x: np.ndarray, friction_x: np.ndarray | None) -> np.ndarray:
     """x with the fitted friction coefficients' own coordinates (they lead every candidate's space), not their
     values converted back and forth: the same point, so the same model as the friction fit's."""
@@ -409,13 +421,12 @@ def _fmt(values: dict[str, float]) -> str:
 
 
 def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) -> Scored:
-    """The Scored model of a fit: the effect's own parameters (for friction, the coefficient that moved most, in
-    units of its step)."""
+    """The Scored model of a fit: the effect's own parameters (for friction, every coefficient, the target the
+    one that moved most in units of its step)."""
     free, values, std = result.space.free, result.values(), result.std()
     if effect == "friction":
-        moved = max(range(len(free)), key=lambda i: abs(result.x[i]))
-        own = [free[moved]]
-        target = own[0].target
+        own = list(free)
+        target = free[max(range(len(free)), key=lambda i: abs(result.x[i]))].target
     else:
         own = [p for p in free if p.effect == effect]
     params = {p.name: values[p.name] for p in own}

@@ -97,9 +97,8 @@ class FitResult:
           `mass_spread`), whose bound is itself a state the world takes (the weight at the very centre): in a
           world that differs from the model elsewhere (a softer pusher) such a parameter is where the misfit
           goes, and the value it qualifies (the mass) is still what the recordings say.
-        Friction coefficients count only when every one of them is stopped: Drake combines a pair's two
-        coefficients (2 a b / (a + b)), so one of them on its bound while another is free still leaves the pair's
-        friction free (one coefficient saturates, the other sets the pair). By name, the bound reached."""
+        The ordinary parameters are pair coefficients (`kinds.PairFriction`), each free of the other, so each
+        counts on its own like any parameter. By name, the bound reached."""
         if self.jacobian is None or self.space.dim == 0:
             return {}
         lower, upper = self.space.normal_bounds()
@@ -114,13 +113,8 @@ class FitResult:
                 out[p.name] = float(p.bounds[1])
             elif self.x[i] <= lower[i] + AT_BOUND and beyond[i] < lower[i]:
                 out[p.name] = float(p.bounds[0])
-        frictions = [p.name for p in self.space.free if p.kind.name == "friction"]
-        if not all(name in out for name in frictions):
-            out = {k: v for k, v in out.items() if k not in frictions}
-        groups = [[k] for k in out if k not in frictions] + ([frictions] if frictions and frictions[0] in out else [])
         price = self.parameter_price()
-        kept = [k for group in groups if self.bound_gain(group) > price * len(group) for k in group]
-        return {k: out[k] for k in kept}
+        return {k: v for k, v in out.items() if self.bound_gain([k]) > price}
 
     def bound_gain(self, names: Sequence[str]) -> float:
         """How much lower chi^2 (tau-discounted, like `bic`'s) would be if the parameters `names` could leave

@@ -358,7 +358,7 @@ class _Reader:
             kd=_number(body.get("kd", 40.0), src, f"{fld}.kd", positive=True),
             joint_types=tuple((j, joint_types[j][0]) for j in joints),
             joint_limits=tuple((j, *joint_types[j][1:]) for j in joints),
-            links=model_xml.links, contact_links=model_xml.contact_links)
+            links=model_xml.links, contact_links=model_xml.contact_links, link_friction=model_xml.link_friction)
 
 
 @dataclass(frozen=True)
@@ -367,6 +367,10 @@ class _ModelNames:
     links: tuple[str, ...]  # () when the model includes or nests others (their names are scoped: Drake checks them)
     contact_links: tuple[str, ...]
     frames: tuple[str, ...]
+    link_friction: tuple[tuple[str, float], ...] = ()
+
+
+DRAKE_XML = "http://drake.mit.edu"  # the namespace of <drake:...> tags in SDF and URDF files
 
 
 def _model_names(model: Path, src: str, fld: str) -> _ModelNames:
@@ -391,7 +395,25 @@ def _model_names(model: Path, src: str, fld: str) -> _ModelNames:
     links = [] if nested else [link for link in root.iter("link") if link.get("name")]
     return _ModelNames(joints, tuple(link.get("name") for link in links),
                        tuple(link.get("name") for link in links if link.find("collision") is not None),
-                       () if nested else tuple(f.get("name") for f in root.iter("frame") if f.get("name")))
+                       () if nested else tuple(f.get("name") for f in root.iter("frame") if f.get("name")),
+                       tuple((link.get("name"), mu) for link in links if (mu := _link_friction(link)) is not None))
+
+
+def _link_friction(link: ElementTree.Element) -> float | None:
+    """The dynamic Coulomb coefficient a link's first collision gives in ``drake:proximity_properties``
+    (``drake:mu_dynamic``, else ``drake:mu_static``): the one Drake's discrete solvers use. None when the file gives
+    none."""
+    for collision in link.iter("collision"):
+        props = collision.find(f"{{{DRAKE_XML}}}proximity_properties")
+        for tag in ("mu_dynamic", "mu_static"):
+            text = props.findtext(f"{{{DRAKE_XML}}}{tag}") if props is not None else None
+            try:
+                value = float(text) if text is not None else math.nan
+            except ValueError:
+                value = math.nan
+            if math.isfinite(value) and value >= 0:
+                return value
+    return None
 
 
 def _limit(joint: ElementTree.Element, which: str, default: float) -> float:

@@ -114,6 +114,7 @@ class RobotSpec:
     joint_limits: tuple[tuple[str, float, float], ...] = ()  # joint, lower, upper (rad or m), from the model file
     links: tuple[str, ...] = ()  # the model's links, from its file (empty when the file includes other models)
     contact_links: tuple[str, ...] = ()  # those with collision geometry: what a contact parameter may target
+    link_friction: tuple[tuple[str, float], ...] = ()  # (link, dynamic coefficient) where the model file gives one
 
     @property
     def joint_type(self) -> dict[str, str]:

@@ -37,7 +37,7 @@ from ..rollout.rollout import Rollout
 from ..sim.extras import SurfacePatch, WeldedShape
 from ..sim.shapes import mass_properties
 from ..sim.anisotropy import AnisotropicFriction
-from ..sim.friction import combined_friction
+from ..sim.friction import combined_friction, pair_coefficients
 from ..sim.support import SupportPressure
 from ..values import Pose
 from ..world import WorldState
@@ -177,7 +177,7 @@ class Friction(_ObjectField):
 
     def null(self, world, odb, target):
         if world.robot is not None and target.startswith(world.robot.name + "/"):
-            return None
+            return link_friction(world, odb).get(target)  # the model file's, when it gives one
         return odb.get(_type_name(world, odb, target)).physics.friction
 
     def bounds(self, world, odb, target):
@@ -193,8 +193,26 @@ class DynamicFriction(Friction):
 
     def null(self, world, odb, target):
         if world.robot is not None and target.startswith(world.robot.name + "/"):
-            return None
+            return link_friction(world, odb).get(target)
         return odb.get(_type_name(world, odb, target)).physics.mu_dynamic
+
+
+def link_friction(world: WorldState, odb: ObjectDatabase) -> dict[str, float]:
+    """The robot's links' dynamic coefficients as its model file gives them, by 'robot/link'."""
+    if world.robot is None:
+        return {}
+    return {f"{world.robot.name}/{link}": mu for link, mu in odb.get(world.robot.type).robot.link_friction}
+
+
+def current_friction(rollout: Rollout, odb: ObjectDatabase, name: str) -> float | None:
+    """The dynamic coefficient `name` (an object or 'robot/link') has in `rollout`: its scene values', else the
+    object database's or the robot model's (None when neither says)."""
+    set_ = rollout.values.objects.get(name)
+    if set_ is not None and (set_.dynamic_friction is not None or set_.friction is not None):
+        return set_.dynamic_friction if set_.dynamic_friction is not None else set_.friction
+    if name in rollout.world.objects:
+        return odb.get(rollout.world.objects[name].type).physics.mu_dynamic
+    return link_friction(rollout.world, odb).get(name)
 
 
 class Dissipation(_ObjectField):
@@ -472,6 +490,85 @@ class _Member(Kind):
 
     def apply(self, value, names, rollout, odb):
         return self.family.realise({self.component: float(value)}, names[0], rollout, odb)
+
+
+class PairFriction(Family):
+    """The friction coefficients of a free object's pairs (Drake's combined values, what the solver uses): with the
+    fixture it rests on (`sliding`) and with the robot's links (`robot`, a factor on each link's pair, since the
+    links differ). Realised as per-body coefficients (`sim.friction.pair_coefficients`): the partners' are chosen
+    to give the pairs and the object keeps its own unless a pair needs more. Why: per-body coefficients tie the
+    pairs together (the object's coefficient enters both), so a fit of them trades one pair against the other;
+    the pairs are what the physics has. What it changes besides: the support's coefficient with other objects on
+    it and the links' with other objects (and, when the object's own is raised, its pairs with other objects)."""
+
+    name = "pair_friction"
+    members = {"sliding": "sliding_friction", "robot": "robot_friction"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        b0 = current_friction(rollout, odb, target)
+        wanted: dict[str, float] = {}
+        surface = support_of(rollout.world, odb, target)
+        if surface is not None and "sliding" in values:
+            wanted[surface] = values["sliding"]
+        if "robot" in values:
+            for link in link_friction(rollout.world, odb):
+                wanted[link] = values["robot"] * combined_friction(b0, current_friction(rollout, odb, link))
+        if not wanted:
+            return rollout
+        b, partners = pair_coefficients(b0, list(wanted.values()))
+        out = rollout.values
+        if b != b0:
+            out = out.with_object(target, friction=b, dynamic_friction=b)
+        for name, mu in zip(wanted, partners):
+            out = out.with_object(name, friction=mu, dynamic_friction=mu)
+        return rollout.with_values(out)
+
+
+class _PairMember(_Member):
+    family, targets = PairFriction, "free objects"
+
+    def check_on(self, value, names, rollout, odb):
+        if self.component == "sliding" and support_of(rollout.world, odb, names[0]) is None:
+            return f"{names[0]!r} rests on no fixture: it has no sliding pair"
+        if self.component == "robot" and not link_friction(rollout.world, odb):
+            return "the robot's model file gives no link a friction coefficient"
+        return None
+
+
+class SlidingFriction(_PairMember):
+    name, component, physical = "sliding_friction", "sliding", FRICTION
+    doc = ("a free object's friction coefficient with the fixture it rests on (the pair's, as Drake combines "
+           "them): the fixture's coefficient is set to give it")
+
+    def null(self, world, odb, target):
+        rollout = Rollout(world, None)
+        surface = support_of(world, odb, target)
+        own = current_friction(rollout, odb, target)
+        return combined_friction(own, current_friction(rollout, odb, surface)) if surface is not None else own
+
+    def bounds(self, world, odb, target):
+        return 0.02, max(1.5, 3 * self.null(world, odb, target))
+
+    def step(self, world, odb, target):
+        return 0.3 * self.null(world, odb, target)
+
+
+class RobotFriction(_PairMember):
+    name, component = "robot_friction", "robot"
+    physical = PhysicalRange(0.0, 20.0, "", "a factor on the model's pair coefficients: 20 times a link's pair is "
+                             "beyond any material pair", open_low=True)
+    doc = ("a free object's friction with the robot's links, as a factor on each link's pair coefficient (the "
+           "model's, as Drake combines them): the links' coefficients are set to give it")
+
+    def null(self, world, odb, target):
+        return 1.0
+
+    def bounds(self, world, odb, target):
+        return 0.1, 6.0
+
+    def step(self, world, odb, target):
+        return 0.3
 
 
 def tilted_poses(world: WorldState, odb: ObjectDatabase, surface: str, slope_x: float, slope_y: float,
@@ -831,6 +928,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     PatchCx(), PatchCy(), PatchHalf(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
     AnisoC(), AnisoS(),
+    SlidingFriction(), RobotFriction(),
 )}
 
 

@@ -98,11 +98,10 @@ def _pressing_fit(names: list[str], x: list[float]):
     return FitResult(space, np.array(x), np.array(x) - 2.0, J, (), 0)
 
 
-def test_a_friction_coefficient_on_its_bound_counts_only_when_every_one_is():
-    # Drake combines a pair's two coefficients: the surface's at 1.5 with the object's free leaves the pair free
-    one = _pressing_fit(["friction[surface]", "friction[block]"], [1.0, 0.4])
-    assert one.at_bound() == {}
-    both = _pressing_fit(["friction[surface]", "friction[block]"], [1.0, 1.0])
-    assert both.at_bound() == {"friction[surface]": 1.5, "friction[block]": 1.5}
-    effect = _pressing_fit(["friction[surface]", "com_x[block]"], [0.4, 1.0])  # an effect's own parameter counts
+def test_a_pair_coefficient_on_its_bound_counts_on_its_own():
+    # the ordinary parameters are the object's pairs (with its support, with the robot), free of each other: one
+    # pressing past its bound says the family is wrong even while the other is free
+    one = _pressing_fit(["sliding_friction[block]", "robot_friction[block]"], [1.0, 0.4])
+    assert one.at_bound() == {"sliding_friction[block]": 1.5}
+    effect = _pressing_fit(["sliding_friction[block]", "com_x[block]"], [0.4, 1.0])  # an effect's own parameter
     assert effect.at_bound() == {"com_x[block]": 1.5}

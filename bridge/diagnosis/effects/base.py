@@ -22,6 +22,19 @@ from ...params import Parameter, ParameterSet, Setting, kind_named
 from ...params.surfaces import movable_objects
 from ...world import WorldState
 
+FRICTION_KINDS = ("friction", "dynamic_friction", "sliding_friction", "robot_friction")
+
+
+def model_friction(model: Sequence[Setting], world: WorldState, odb: ObjectDatabase, name: str) -> float:
+    """The dynamic coefficient `name` (an object or 'robot/link') has under `model`'s friction settings, whichever
+    kinds set it (a pair coefficient moves its partners', `kinds.PairFriction`)."""
+    from ...params.kinds import current_friction
+    from ...params.model import apply_model
+    from ...rollout.rollout import Rollout
+
+    rollout = apply_model([s for s in model if s.kind in FRICTION_KINDS], Rollout(world, None), odb)
+    return current_friction(rollout, odb, name)
+
 
 @dataclass(frozen=True)
 class Evidence:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ...params.surfaces import supported_by, surfaces_under
 from ...sim.friction import combined_friction
-from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
+from .base import Effect, Evidence, Recovery, Truth, model_friction, movable_observed, pname
 
 FACTORS = (1.5, 2.2, 3.2)  # the proof's surface coefficient, times or divided by this (small, medium, large)
 
@@ -44,10 +44,9 @@ class Friction(Effect):
         return found == concealed or found in supported_by(world, odb, concealed)
 
     def recovered(self, truth, found, model, world, odb):
-        mus = {s.target: s.value for s in model if s.kind == "friction"}
         obj = next(n for n, o in world.objects.items() if not odb.get(o.type).fixed)
-        mu_o = mus.get(obj, odb.get(world.objects[obj].type).physics.friction)
-        mu_s = mus.get(truth.target, odb.get(world.objects[truth.target].type).physics.friction)
-        pair, true_pair = combined_friction(mu_o, mu_s), truth.extra["pair_mu"]
+        pair = combined_friction(model_friction(model, world, odb, obj),
+                                 model_friction(model, world, odb, truth.target))
+        true_pair = truth.extra["pair_mu"]
         err = abs(pair - true_pair)
         return Recovery(err <= 0.25 * true_pair, err, "", f"pair mu {pair:.3f} vs {true_pair:.3f} (tolerance 25 %)")

@@ -14,7 +14,7 @@ from ...odb.geometry import half_extents
 from ...params.surfaces import supported_by, surfaces_under
 from ...sim.extras import SurfacePatch
 from ...sim.friction import combined_friction, surface_friction_for
-from .base import Effect, Evidence, Recovery, Truth, pname
+from .base import Effect, Evidence, Recovery, Truth, model_friction, pname
 
 HIGHER = (1.2, 1.32, 1.44)  # the proof's pair coefficient inside, times this (small, medium, large) ...
 LOWER = (0.78, 0.66, 0.56)  # ... or this
@@ -117,10 +117,8 @@ class FrictionPatch(Effect):
             rollout.telemetry
 
     def recovered(self, truth, found, model, world, odb):
-        mus = {s.target: s.value for s in model if s.kind == "friction"}
         obj = next(n for n, o in world.objects.items() if not odb.get(o.type).fixed)
-        mu_o = mus.get(obj, odb.get(world.objects[obj].type).physics.friction)
-        pair = combined_friction(mu_o, found[pname("patch_mu", truth.target)])
+        pair = combined_friction(model_friction(model, world, odb, obj), found[pname("patch_mu", truth.target)])
         true = truth.params["pair_mu_inside"]
         err = abs(pair - true)
         return Recovery(err <= 0.3 * true, err, "", f"pair mu inside {pair:.3f} vs {true:.3f} (30 %)")

@@ -11,8 +11,8 @@ import math
 
 from ...params.surfaces import support_of
 from ...sim.extras import Slug
-from ...sim.friction import combined_friction, surface_friction_for
 from ...sim.shapes import mass_properties
+from ...params import Parameter
 from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
 
 ADDED = (0.5, 1.0, 2.0)  # the proof's slug, in masses of the object (small, medium, large)
@@ -34,7 +34,7 @@ class Mass(Effect):
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
         """The mass scaled by the force ratio r (observed / simulated) when a force was recorded, and by its
         square root; and, since a sliding object's force is its weight times the pair's coefficient, r split
-        between the two: mass x r^s with the surface's coefficient set so that the pair's is x r^(1 - s), for
+        between the two: mass x r^s with the sliding pair's coefficient x r^(1 - s), for
         s = 1/3, 1/2, 2/3 (the slide-on after the rod stops, which the coefficient alone sets, then tells them
         apart). Without a force, the null and a third more or less."""
         world, odb = evidence.world, evidence.odb
@@ -47,15 +47,11 @@ class Mass(Effect):
         surface = support_of(world, odb, target)
         if scale is None or surface is None or abs(math.log(scale)) < 0.1:
             return seeds
-        mu_o = odb.get(world.objects[target].type).physics.friction
-        pair = combined_friction(mu_o, odb.get(world.objects[surface].type).physics.friction)
+        sliding = Parameter.of("sliding_friction", target, world, odb)
         for share in (1 / 3, 1 / 2, 2 / 3):
-            wanted = pair * scale ** (1 - share)
-            # the surface's coefficient alone reaches a pair below 2 mu_object; beyond, both take the pair's value
-            mu = {target: mu_o, surface: float(surface_friction_for(wanted, mu_o))} if wanted < 1.8 * mu_o else \
-                {target: wanted, surface: wanted}
+            wanted = float(min(max(sliding.start * scale ** (1 - share), sliding.bounds[0]), sliding.bounds[1]))
             seeds.append({mass.name: float(min(max(scale ** share * mass.start, lo), hi)),
-                          pname("mass_spread", target): 0.0, **{pname("friction", k): v for k, v in mu.items()}})
+                          pname("mass_spread", target): 0.0, sliding.name: wanted})
         return seeds
 
     def signature(self, evidence: Evidence, target: str) -> float:
