@@ -9,7 +9,7 @@ import pytest
 from bridge.diagnosis.identify import _friction_parameters
 from bridge.diagnosis.runs import Runner, prepare
 from bridge.diagnosis.search import Evaluator, fit
-from bridge.params import ParameterSet, Setting, apply_model, trial_rollout
+from bridge.params import KINDS, ParameterSet, Setting, apply_model, trial_rollout
 from bridge.params.kinds import current_friction
 from bridge.prove.generate import generate_case, noisy_track
 from bridge.prove.scenes import NOISE_POSITION, NOISE_ROTATION
@@ -27,6 +27,9 @@ def test_pair_coefficients_are_realised_exactly_and_independently(planar_world, 
     """Each pair gets the value asked, the other stays; a sliding pair above twice the block's own coefficient
     (out of reach of the surface's coefficient alone) raises the block's and keeps the rod's pair."""
     block_mu = odb.get(planar_world.objects["block"].type).physics.mu_dynamic
+    # the rod's coefficient, as models/pusher2d/pusher2d.sdf gives it (drake:mu_dynamic), is the link's null
+    assert odb.get("planar_pusher").robot.link_friction == (("pusher_rod", 0.25),)
+    assert KINDS["friction"].null(planar_world, odb, ROD) == 0.25
 
     def pairs(*settings):
         r = apply_model(list(settings), Rollout(planar_world, None), odb)
