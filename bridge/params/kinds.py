@@ -532,7 +532,9 @@ class _PairMember(_Member):
         if self.component == "sliding" and support_of(rollout.world, odb, names[0]) is None:
             return f"{names[0]!r} rests on no fixture: it has no sliding pair"
         if self.component == "robot" and not link_friction(rollout.world, odb):
-            return "the robot's model file gives no link a friction coefficient"
+            robot = rollout.world.robot
+            return ("the world has no robot" if robot is None else
+                    f"the model file of robot {robot.name!r} gives no link a friction coefficient (drake:mu_dynamic)")
         return None
 
 

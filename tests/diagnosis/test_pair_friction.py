@@ -3,13 +3,16 @@ real materials have independent: a slippery rod on a block that grips its surfac
 Drake simulation, where per-body coefficients cannot reach it."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from bridge.diagnosis.identify import _friction_parameters
 from bridge.diagnosis.runs import Runner, prepare
 from bridge.diagnosis.search import Evaluator, fit
-from bridge.params import KINDS, ParameterSet, Setting, apply_model, trial_rollout
+from bridge.errors import ParameterError
+from bridge.params import KINDS, ParameterSet, Setting, apply_model, check_values, parse_params, trial_rollout
 from bridge.params.kinds import current_friction
 from bridge.prove.generate import generate_case, noisy_track
 from bridge.prove.scenes import NOISE_POSITION, NOISE_ROTATION
@@ -19,6 +22,7 @@ from bridge.rollout import load_trials, make_executor, run_rollout
 from bridge.rollout.rollout import Rollout
 from bridge.sim.friction import combined_friction
 from bridge.sim.simulate import SimOptions
+from bridge.values import Pose
 
 ROD = "pusher/pusher_rod"
 
@@ -42,6 +46,19 @@ def test_pair_coefficients_are_realised_exactly_and_independently(planar_world, 
     high = 2.5 * block_mu
     assert pairs(Setting("sliding_friction", "block", high), Setting("robot_friction", "block", 0.4)) == \
         pytest.approx((high, 0.4 * rod0))
+
+
+def test_a_pair_the_world_does_not_have_is_refused_with_its_reason(planar_world, odb):
+    """A parameter file's sliding pair for an object on no fixture, or robot pairs in a world without a robot,
+    names the entry and why, before anything is simulated."""
+    lifted = planar_world.with_poses({"block": Pose((0.0, 0.0, 0.3))})
+    no_robot = dataclasses.replace(planar_world, robot=None)
+    for world, kind, why in ((lifted, "sliding_friction", "'block' rests on no fixture"),
+                             (no_robot, "robot_friction", "the world has no robot")):
+        spec = parse_params({"params": [{"kind": kind, "target": "block", "value": 0.3}]}, "pairs.yaml")
+        with pytest.raises(ParameterError) as err:
+            check_values(spec, [Rollout(world, None)], odb)
+        assert why in str(err.value) and "pairs.yaml" in str(err.value) and "params[0].value" in str(err.value)
 
 
 @pytest.mark.slow
