@@ -100,7 +100,7 @@ def run_of(p: Prepared, outcome: Outcome, want_tracks: bool = False) -> Run:
         if result is None:
             r = failed_residual(len(s.times))
         else:
-            xyz, R = sample_track(result.times, result.tracks[s.object], s.times)
+            xyz, R = sample_track(result.times, result.observed_track(s.object), s.times)
             r = pose_residual(s.xyz, s.R, xyz, R)
         residuals[s.object] = r
         parts.append(normalised(s, r))

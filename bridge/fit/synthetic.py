@@ -52,7 +52,7 @@ def synthesize_trial(name: str, world: WorldState, telemetry: Telemetry, odb: Ob
     times = np.arange(0.0, result.times[-1] + 1e-9, 1.0 / rate)
     tracks = []
     for obj in names:
-        xyz, R = sample_track(result.times, result.tracks[obj], times)
+        xyz, R = sample_track(result.times, result.observed_track(obj), times)
         tracks.append(ObservedTrack(obj, times, tuple(Pose(tuple(p), rotation_to_quat(r)) for p, r in zip(xyz, R))))
     return Trial(name, world, telemetry, ObservedPoses(tuple(tracks), source=f"<synthetic {name}>"),
                  Path(f"<synthetic {name}>"), (f"synthetic: observations simulated with {_describe(spec, values)}",))

@@ -920,6 +920,85 @@ class AnisoS(_AnisotropyComponent):
     doc = "anisotropic friction on the support: a sin 2 theta (see aniso_c)"
 
 
+class ObjectFrame(Family):
+    """Where the recording's tracker puts an object's frame: the pose X_BR of the recorded frame in the object's body
+    frame (markers off the centre the model's geometry assumes, a frame turned). The body starts where the recorded
+    start pose and X_BR put it (X_WR0 X_BR^-1) and its poses are compared with the recording in the recorded frame
+    (`Rollout.frames`); no new scene, nothing simulated differently but the start."""
+
+    name = "object_frame"
+    members = {"x": "frame_x", "y": "frame_y", "yaw": "frame_yaw"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        x, y, yaw = values.get("x", 0.0), values.get("y", 0.0), values.get("yaw", 0.0)
+        if x == 0.0 and y == 0.0 and yaw == 0.0:
+            return rollout
+        X_BR = Pose((float(x), float(y), 0.0), (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)))
+        X_WR = rollout.world.objects[target].pose  # the recording's start pose is the tracked frame's
+        X_WB = Pose.from_matrix(X_WR.matrix() @ np.linalg.inv(X_BR.matrix()))
+        return rollout.with_world(rollout.world.with_poses({target: X_WB})).with_frame(target, X_BR)
+
+
+class _FrameMember(_Member):
+    null_is_world = True
+    family, targets = ObjectFrame, "free objects"
+
+    def null(self, world, odb, target):
+        return 0.0
+
+
+class _FrameOffset(_FrameMember):
+    unit, axis = "m", 0
+    physical = PhysicalRange(-1.0, 1.0, "m", "in m, object frame: no object on a table reaches 1 m from its centre")
+
+    def _half(self, world, odb, target) -> float:
+        return float(np.max(footprint_half(world, odb, target)[:2])) if target in world.objects else 0.05
+
+    def check_on(self, value, names, rollout, odb):
+        for name in names:
+            h = self._half(rollout.world, odb, name)
+            if abs(value) > h:
+                return (f"{self.name} {value:g} m puts the recorded frame outside {name!r} (half extent {h:.4g} m): "
+                        "the recording tracks another object")
+        return None
+
+    def bounds(self, world, odb, target):
+        h = self._half(world, odb, target)
+        return -0.5 * h, 0.5 * h
+
+    def step(self, world, odb, target):
+        return 0.002
+
+    def negligible(self, world, odb, target):
+        return 0.001
+
+
+class FrameX(_FrameOffset):
+    name, component, axis = "frame_x", "x", 0
+    doc = "the recorded frame's offset from the object's modelled frame, object x (a tracker's markers off centre)"
+
+
+class FrameY(_FrameOffset):
+    name, component, axis = "frame_y", "y", 1
+    doc = "the recorded frame's offset from the object's modelled frame, object y (a tracker's markers off centre)"
+
+
+class FrameYaw(_FrameMember):
+    name, component, unit = "frame_yaw", "yaw", "rad"
+    doc = "the recorded frame turned about the object's vertical axis from its modelled frame"
+    physical = PhysicalRange(-math.pi, math.pi, "rad", "in rad: an angle about the vertical")
+
+    def bounds(self, world, odb, target):
+        return -0.35, 0.35  # 20 deg: beyond it a symmetric outline's turn is ambiguous and the frame is another one
+
+    def step(self, world, odb, target):
+        return 0.02
+
+    def negligible(self, world, odb, target):
+        return 0.0175  # 1 deg
+
+
 # --- the registry -------------------------------------------------------------------------------------------
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Friction(), DynamicFriction(), Dissipation(), HydroelasticModulus(),
@@ -931,6 +1010,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     SupportScale(), SupportX(), SupportY(),
     AnisoC(), AnisoS(),
     SlidingFriction(), RobotFriction(),
+    FrameX(), FrameY(), FrameYaw(),
 )}
 
 

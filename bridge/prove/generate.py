@@ -14,6 +14,8 @@ the model the diagnosis fits wherever it can (the effect's own `conceal`, in its
 | (cont.)         | clock, 100 Hz)                                              |                                              |
 | pusher_offset   | the robot's base mounted off by (dx, dy)                   | offsets added to the joint readings          |
 | hidden_obstacle | a welded box of random size and yaw                         | a welded post of radius 15 mm                |
+| object_frame    | the recorder reports a frame fixed on the body off its      | the body started from the recorded pose      |
+| (cont.)         | centre and turned (`Effect.recorded_track`)                 | moved, compared in the frame (`frames`)      |
 
 Observations are the true simulation sampled at 50 Hz with Gaussian measurement noise (position and a small
 random rotation), and the contact force on the rod as a planar force sensor reads it (fx, fy, with noise). The
@@ -99,7 +101,7 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
             continue
         result = run_rollout(true, odb, SimOptions(sample_rate=OBS_RATE, end=float(push.times[-1]), robot_force=True))
         times, force = result.times, result.robot_force
-        observed = noisy_track(spec.object, times, result.tracks[spec.object], rng,
+        observed = noisy_track(spec.object, times, effect.recorded_track(truth, result.tracks[spec.object]), rng,
                                noise if not mismatched else mismatch.sensors)
         sensed = None
         if force_noise is not None:  # a planar force sensor on the rod: fx, fy
@@ -146,7 +148,7 @@ def _write_mit_push(path: Path, spec: SceneSpec, odb: ObjectDatabase, effect, tr
         tip = recorded.sample(times)
     sensors = mismatch.sensors
     dxyz, drot = sensors.pose_noise(times, rng)
-    track = result.tracks[spec.object]
+    track = effect.recorded_track(truth, result.tracks[spec.object])
     yaw = np.array([Rotation.from_quat(row[[4, 5, 6, 3]]).as_euler("zyx")[0] for row in track]) + drot[:, 2]
     clock = UNIX_START + rng.uniform(0.0, 3.0e7) + times
     stamps = clock.copy()

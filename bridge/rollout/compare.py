@@ -114,7 +114,7 @@ def observed_residuals(observations: ObservedPoses, objects: Collection[str], te
         query = np.clip(times, 0.0, result.times[-1])
         if not observations.is_dense:
             query = np.where(times >= telemetry_end, result.times[-1], query)
-        sim_xyz, sim_R = sample_track(result.times, result.tracks[track.object], query)
+        sim_xyz, sim_R = sample_track(result.times, result.observed_track(track.object), query)
         out.append(pose_residual(np.array([p.xyz for p in poses]), np.array([p.rotation() for p in poses]),
                                  sim_xyz, sim_R))
     return out

@@ -40,6 +40,10 @@ class Rollout:
     hooks: tuple = ()
     config: SimConfig = field(default_factory=SimConfig)
     name: str = ""
+    # (object, X_BR): the pose of the frame the recording tracks on an object, in the object's body frame (a
+    # tracker's markers off the object's centre, turned); the replay reports it beside the body's poses
+    # (`ReplayResult.observed_track`), the world's poses stay the bodies'
+    frames: tuple[tuple[str, Pose], ...] = ()
 
     def with_world(self, world: WorldState) -> "Rollout":
         return replace(self, world=world)
@@ -55,6 +59,9 @@ class Rollout:
 
     def with_hooks(self, *hooks) -> "Rollout":
         return replace(self, hooks=self.hooks + tuple(hooks))
+
+    def with_frame(self, name: str, frame: Pose) -> "Rollout":
+        return replace(self, frames=tuple((n, f) for n, f in self.frames if n != name) + ((name, frame),))
 
 
 def structure(world: WorldState, odb: ObjectDatabase) -> tuple:
@@ -87,8 +94,9 @@ def run_rollout(rollout: Rollout, odb: ObjectDatabase, options: SimOptions = Sim
                 progress: Callable[[float, float], None] | None = None) -> ReplayResult:
     """Simulate `rollout` in this process (its scene from the cache). Raises `SimulationFailure` when the replay
     fails (see `bridge.sim.simulate.FailurePolicy`) and any other `BridgeError` for bad input."""
-    return simulate(scene_for(rollout, odb), rollout.telemetry, world=rollout.world, values=rollout.values,
-                    hooks=rollout.hooks, options=options, on_sample=on_sample, progress=progress)
+    result = simulate(scene_for(rollout, odb), rollout.telemetry, world=rollout.world, values=rollout.values,
+                      hooks=rollout.hooks, options=options, on_sample=on_sample, progress=progress)
+    return replace(result, frames=rollout.frames) if rollout.frames else result
 
 
 def check_rollout(rollout: Rollout, odb: ObjectDatabase) -> Scene:

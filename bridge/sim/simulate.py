@@ -87,10 +87,21 @@ class ReplayResult:
     robot_force: np.ndarray | None = None  # (T, 3) N on the robot from what it touches, world frame
     awake: tuple[tuple[float, float], ...] = ()  # sim-time spans stepped with contact dynamics (the rest: all asleep)
     awake_wall: float = 0.0  # wall seconds spent in those spans
+    # (object, pose of its recorded frame in its body frame): where the recording's tracker put the object's frame
+    # (`Rollout.frames`); poses are compared with a recording in that frame (`observed_track`)
+    frames: tuple[tuple[str, Pose], ...] = ()
 
     @property
     def final_poses(self) -> dict[str, Pose]:
         return {n: track_pose(t[-1]) for n, t in self.tracks.items()}
+
+    def observed_track(self, name: str) -> np.ndarray:
+        """The (T, 7) track of `name` as its recording reports it: the pose of the recorded frame (X_WB X_BR, with
+        X_BR from `frames`), the body's own where the rollout named none. The simulation and the world state stay
+        in the body frame; only comparisons with a recording go through here."""
+        track = self.tracks[name]
+        frame = dict(self.frames).get(name)
+        return track if frame is None else frame_track(track, frame)
 
     def pose_at(self, name: str, t: float) -> Pose:
         i = int(np.clip(np.searchsorted(self.times, t), 0, len(self.times) - 1))
@@ -102,6 +113,16 @@ class ReplayResult:
 
     def contact_pairs(self) -> frozenset[tuple[str, str]]:
         return frozenset((c.body_a, c.body_b) for c in self.contact_log)
+
+
+def frame_track(track: np.ndarray, frame: Pose) -> np.ndarray:
+    """A (T, 7) track of a body's poses X_WB turned into those of a frame fixed on it at X_BR = `frame`."""
+    from scipy.spatial.transform import Rotation
+
+    R_WB = Rotation.from_quat(track[:, [4, 5, 6, 3]])
+    xyz = track[:, :3] + R_WB.apply(np.asarray(frame.xyz))
+    q = (R_WB * Rotation.from_quat(np.asarray(frame.quat)[[1, 2, 3, 0]])).as_quat()
+    return np.column_stack([xyz, q[:, 3], q[:, :3]])
 
 
 def track_pose(row: np.ndarray) -> Pose:

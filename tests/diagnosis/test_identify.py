@@ -96,3 +96,27 @@ def test_without_cross_validation_the_fits_criteria_decide():
     friction = _scored("friction", 2.0 * n, n, params={"friction[surface]": 0.9})
     assert _acceptable(friction, none, None, None, None) is None
     assert not math.isnan(friction.chi2)
+
+
+def test_a_verdict_that_still_mispredicts_says_it_is_no_explanation_and_names_the_object_model_when_early():
+    """A chosen model that predicts unseen recordings at 5 noise floors is the best of the catalog, not an
+    explanation; residuals that start as the rod meets the outline point at the object model, later ones do not."""
+    from types import SimpleNamespace
+
+    from bridge.diagnosis.identify import FIRST_CONTACT, UNEXPLAINED, _unexplained
+
+    n = 100
+    poor = _scored("friction", 0, 0, {"a": (25.0 * n, n), "b": (25.0 * n, n)})
+    good = _scored("friction", 0, 0, {"a": (1.2 * n, n), "b": (1.5 * n, n)})
+    assert 1.5 ** 0.5 < UNEXPLAINED < 5.0
+
+    def located(*onsets):
+        return SimpleNamespace(objects=[SimpleNamespace(significant=True, features={"onset_rel": v}) for v in onsets])
+
+    early = located(0.0, 0.5 * FIRST_CONTACT, 0.6)
+    late = located(0.4, 0.6, 0.0)
+    assert _unexplained(good, early) is None
+    text = _unexplained(poor, early)
+    assert "5.0 noise floors" in text and "2 of 3 recordings" in text and "object model" in text
+    text = _unexplained(poor, late)
+    assert "not an explanation" in text and "object model" not in text

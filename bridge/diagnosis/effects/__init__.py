@@ -20,6 +20,7 @@ from .hidden_obstacle import HiddenObstacle
 from .latency import Latency
 from .mass import Mass
 from .none import NoEffect
+from .object_frame import ObjectFrameEffect
 from .pressure_distribution import PressureDistribution
 from .pusher_offset import PusherOffset
 from .surface_tilt import SurfaceTilt
@@ -36,6 +37,7 @@ EFFECTS: dict[str, Effect] = {
     "hidden_obstacle": HiddenObstacle(),
     "pressure_distribution": PressureDistribution(),
     "anisotropic_friction": AnisotropicFrictionEffect(),
+    "object_frame": ObjectFrameEffect(),
 }
 
 __all__ = ["EFFECTS", "Effect", "Evidence", "Recovery", "Truth", "get_effect", "pname", "register_effect"]

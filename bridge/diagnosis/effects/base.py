@@ -51,6 +51,9 @@ class Evidence:
     started_inside: float = 0.0
     loader_offset: Mapping[str, float] | None = None
     offset_evident: bool = False
+    # the recorded frame on the focus object that the pushing samples imply (`diagnosis.outline`), by parameter
+    # name, when they make it evident (None otherwise)
+    frame: Mapping[str, float] | None = None
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))
@@ -169,6 +172,11 @@ class Effect:
         """(the true rollout, the telemetry the recorder writes) of one generated recording, from the exact
         `rollout` of the world model: the effect made by a physical mechanism, not by the model."""
         raise DiagnosisError(f"the proof cannot conceal effect {self.name!r}")
+
+    def recorded_track(self, truth: Truth, track: np.ndarray) -> np.ndarray:
+        """What the recorder reports of an object's true (T, 7) track (default: the track; a tracker that follows
+        another frame on the object changes it)."""
+        return track
 
     def target_matches(self, concealed: str, found: str, world: WorldState, odb: ObjectDatabase) -> bool:
         """Whether a diagnosis that names `found` found the concealed target."""

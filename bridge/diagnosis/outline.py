@@ -1,0 +1,161 @@
+"""Where the rod touched the object's outline while it pushed: the recorded frame on the object, read from the
+recordings before any simulation.
+
+While a rod pushes an object, its centre lies one rod radius outside the outline. Expressed in the body frame the
+model's outline is drawn in, the recorded rod is Rot(-yaw_B) (tip - xy_R) + r, with the recorded pose (xy_R,
+yaw_R), the body's yaw yaw_B = yaw_R - d and the recorded frame X_BR = (r, d) (`params.kinds.ObjectFrame`). So
+the frame is what brings every pushing sample of every recording onto the outline at one common distance s (the
+rod's radius plus any error of the outline's size): a robust least-squares fit of (r_x, r_y, d, s) over the
+samples where the object moves, as the loader's contact gaps do for a rod offset (`loader.ContactFit`). It needs
+a planar pusher (the rod's centre is its joints' x and y) and a prism outline; it sees what the simulation does
+not decide, so it holds whatever the physics model gets wrong, and seeds the `object_frame` fit.
+
+A rod calibration offset D (world frame) moves the rod in the body frame by Rot(-yaw_B) D: recordings in which
+the object has one yaw cannot tell it from a frame offset, so the estimate is a seed and a signature, never a
+verdict; the fits and cross-validation decide.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..recording.adjustments import StartClearance
+from .loader import NOISE_SIGMAS
+
+PLANAR_JOINTS = ("pusher_x", "pusher_y")
+MOVING = 0.3  # a sample pushes when the object moves at this share of its 90th-percentile speed (mitpush's rule)
+LEVER = 0.05  # m: rotation's share of the speed (|v| + LEVER |omega|)
+SCALE = 0.001  # m: the robust loss's scale (soft L1): a sample a millimetre off the outline counts fully
+MIN_SAMPLES = 30  # pushing samples over all recordings, fewer and nothing is estimated
+YAW_BOUND = 0.35  # rad: the fit's range of d (the `frame_yaw` search's)
+
+
+@dataclass(frozen=True)
+class FrameFit:
+    """The frame (r_x, r_y in m, d in rad) and the common gap s (m) that put the pushing samples on the outline,
+    their 1-sigma (from the robust fit's curvature and its leftover scatter), the gap's RMS before (null frame)
+    and after, over `count` samples of `recordings` recordings."""
+
+    x: float
+    y: float
+    yaw: float
+    gap: float
+    std: tuple[float, float, float]
+    rms_before: float
+    rms_after: float
+    count: int
+    recordings: int
+    at_bound: bool = False  # a bound of the fit stopped it: the samples do not pin the frame (one face pushed)
+
+    def sigmas(self) -> float:
+        """How far the frame lies from the null, in standard deviations (each component's, the largest)."""
+        return max(abs(v) / s if s > 0 else 0.0 for v, s in zip((self.x, self.y, self.yaw), self.std))
+
+    @property
+    def evident(self) -> bool:
+        """Beyond NOISE_SIGMAS from the null and beyond a negligible frame (1 mm or 1 deg), with the gap's RMS
+        falling by a third: a frame the samples agree on, not one the fit picked from noise."""
+        size = math.hypot(self.x, self.y) > 0.001 or abs(self.yaw) > math.radians(1.0)
+        return (self.sigmas() > NOISE_SIGMAS and size and self.rms_after < 2 / 3 * self.rms_before
+                and not self.at_bound)
+
+    def values(self, target: str) -> dict[str, float]:
+        return {f"frame_x[{target}]": self.x, f"frame_y[{target}]": self.y, f"frame_yaw[{target}]": self.yaw}
+
+    def sentence(self, target: str) -> str:
+        return (f"while it pushed, the rod sat on {target}'s outline only with the recorded frame moved: the "
+                f"recording tracks a frame at ({1e3 * self.x:+.1f}, {1e3 * self.y:+.1f}) mm, turned "
+                f"{math.degrees(self.yaw):+.1f} deg, in the object's model ({self.sigmas():.0f} sigma, from "
+                f"{self.recordings} recordings; the gap's RMS falls from {1e3 * self.rms_before:.2f} to "
+                f"{1e3 * self.rms_after:.2f} mm): evidence of an object-model error (object_frame), or of a rod "
+                f"offset where the object kept one yaw")
+
+    def to_json(self) -> dict:
+        return {"frame_m": [float(f"{self.x:.4g}"), float(f"{self.y:.4g}")], "frame_yaw_rad": float(f"{self.yaw:.4g}"),
+                "gap_m": float(f"{self.gap:.4g}"), "std": [float(f"{v:.3g}") for v in self.std],
+                "sigmas": float(f"{self.sigmas():.3g}"), "evident": self.evident,
+                "gap_rms_m": [float(f"{self.rms_before:.3g}"), float(f"{self.rms_after:.3g}")],
+                "samples": self.count, "recordings": self.recordings, "at_bound": self.at_bound}
+
+
+def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(rod xy (n, 2), recorded object xy (n, 2), recorded yaw (n,)) at the observed samples where `obj` moves,
+    the rod from the raw telemetry (the loader's start-clearance shift taken back); None without a planar
+    pusher, an observed track of `obj` or enough samples."""
+    world, telemetry = trial.world, trial.telemetry
+    if world.robot is None or telemetry is None or not set(PLANAR_JOINTS) <= set(telemetry.joint_names):
+        return None
+    track = next((t for t in trial.observations.tracks if t.object == obj), None)
+    if track is None or len(track.times) < 5:
+        return None
+    times = np.asarray(track.times, dtype=float)
+    xy = np.array([p.xyz[:2] for p in track.poses])
+    yaw = np.unwrap([p.yaw() for p in track.poses])
+    columns = [telemetry.joint_names.index(j) for j in PLANAR_JOINTS]
+    tip = telemetry.sample(times)[:, columns] + np.asarray(world.robot.base_pose.xyz[:2])
+    for a in trial.adjustments:
+        if isinstance(a, StartClearance) and a.object == obj:
+            tip = tip - np.asarray(a.shift)  # the raw recording's rod
+    speed = np.hypot(*np.gradient(xy, times, axis=0).T) + LEVER * np.abs(np.gradient(yaw, times))
+    moving = np.nonzero(speed >= MOVING * np.percentile(speed, 90))[0] if np.any(speed > 0) else np.zeros(0, int)
+    if len(moving) < 5:
+        return None
+    return tip[moving], xy[moving], yaw[moving]
+
+
+def fit_frame(samples: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], outline: np.ndarray) -> FrameFit | None:
+    """The frame and gap that put every pushing sample on the outline (module docstring), or None with fewer than
+    MIN_SAMPLES samples."""
+    from ..recording.mitpush import _signed_distance
+
+    samples = [s for s in samples if s is not None]
+    if not samples:
+        return None
+    tip, xy, yaw = (np.concatenate([s[k] for s in samples]) for k in range(3))
+    if len(tip) < MIN_SAMPLES:
+        return None
+    rel = tip - xy
+    outline = np.asarray(outline, dtype=float)
+
+    def gaps(p: np.ndarray) -> np.ndarray:
+        heading = yaw - p[2]
+        c, s = np.cos(heading), np.sin(heading)
+        local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]]) + p[:2]
+        return _signed_distance(local, outline) - p[3]
+
+    s0 = float(np.median(gaps(np.zeros(4))))
+    before = gaps(np.array([0.0, 0.0, 0.0, s0]))
+    half = 0.5 * float(np.max(np.abs(outline)))
+    best = None
+    for d0 in (0.0, -0.07, 0.07):  # as the effect's seeds: the turn acts through where the rod meets the outline
+        fit = least_squares(gaps, np.array([0.0, 0.0, d0, s0]), loss="soft_l1", f_scale=SCALE,
+                            bounds=([-half, -half, -YAW_BOUND, -0.05], [half, half, YAW_BOUND, 0.05]))
+        if best is None or fit.cost < best.cost:
+            best = fit
+    after = best.fun
+    J = best.jac
+    scatter = 1.4826 * float(np.median(np.abs(after - np.median(after))))
+    var = max(scatter ** 2, 1e-12)
+    cov = var * np.linalg.pinv(J.T @ J)
+    std = tuple(float(math.sqrt(max(cov[k, k], 0.0))) for k in range(3))
+    bounded = bool(max(abs(best.x[0]), abs(best.x[1])) > 0.99 * half or abs(best.x[2]) > 0.99 * YAW_BOUND)
+    return FrameFit(float(best.x[0]), float(best.x[1]), float(best.x[2]), float(best.x[3]), std,
+                    float(np.sqrt(np.mean(np.minimum(np.abs(before), 0.01) ** 2))),
+                    float(np.sqrt(np.mean(np.minimum(np.abs(after), 0.01) ** 2))), len(tip), len(samples), bounded)
+
+
+def frame_evidence(prepared, odb, obj: str) -> FrameFit | None:
+    """The frame the pushing samples of `obj` in every prepared trial imply (`fit_frame`), None when it cannot be
+    read (no planar pusher, no prism outline, too few samples)."""
+    from ..rollout.trials import shape_outline
+
+    if obj not in prepared[0].world.objects:
+        return None
+    outline = shape_outline(prepared[0].world.objects[obj].type, odb)
+    if outline is None:
+        return None
+    return fit_frame([pushing_samples(p.trial, obj) for p in prepared], outline)
