@@ -73,7 +73,7 @@ def prepare(trial: Trial, odb: ObjectDatabase, rate: float = 25.0) -> Prepared:
 @dataclass(frozen=True, eq=False)
 class Run:
     """One model on one trial: residual (n, 6) per observed object and (n, 3) of the robot's force when it was
-    recorded, optionally the simulated tracks and contacts."""
+    recorded, optionally the simulated tracks (in the recorded frames, as compared) and contacts."""
 
     trial: str
     residuals: Mapping[str, np.ndarray]
@@ -112,7 +112,8 @@ def run_of(p: Prepared, outcome: Outcome, want_tracks: bool = False) -> Run:
         parts.append(f_norm)
     keep = want_tracks and result is not None
     return Run(p.name, residuals, np.concatenate(parts), outcome.failure,
-               result.times if keep else None, dict(result.tracks) if keep else None,
+               result.times if keep else None,
+               {n: result.observed_track(n) for n in result.tracks} if keep else None,
                result.contact_log if result is not None else (), outcome.wall_time, f_res, float(f_norm @ f_norm),
                int(f_norm.size))
 

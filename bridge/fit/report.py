@@ -224,7 +224,7 @@ def plot_trajectories(result: FitResult, trials: Sequence[Trial], odb: ObjectDat
         for label, x, style in (("before", None, dict(color="grey", ls="--")), ("after", fitted, dict(color=ORANGE))):
             try:
                 rollout = trial_rollout(trial, result.spec.model(x), odb, strict=False)
-                sim = run_rollout(rollout, odb, sim_options(trial)).tracks[track.object] * 1e3
+                sim = run_rollout(rollout, odb, sim_options(trial)).observed_track(track.object) * 1e3
                 ax.plot(sim[:, 0], sim[:, 1], label=f"simulated {label}", **style)
             except SimulationFailure:
                 ax.plot([], [], label=f"simulated {label}: failed", **style)
