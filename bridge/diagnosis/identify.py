@@ -51,6 +51,8 @@ CV_GAIN = 0.25  # share of the ordinary model's cross-validated chi^2 above the 
 #               (`Prediction.compare`: a geometric mean over the recordings)
 UNEXPLAINED = 3.0  # cross-validated RMS (noise floors) above which the report says the verdict explains little
 FIRST_CONTACT = 0.1  # share of a push within which a residual that starts counts as starting at the first contact
+FRAME_FLOOR = (0.001, math.radians(1.0))  # m, rad: the least uncertainty granted to the frame the pushing samples
+#                                            imply (an outline modelled to a millimetre and a degree)
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
 
 
@@ -514,10 +516,6 @@ def _checked_against(s: Scored, loader: LoaderEvidence, frame: FrameFit | None =
         f"pusher_offset's fitted rod offset ({1e3 * fitted[0]:+.1f}, {1e3 * fitted[1]:+.1f}) mm is not what the "
         f"rod-to-outline gaps while pushing show ({1e3 * fit.offset[0]:+.1f}, {1e3 * fit.offset[1]:+.1f}) mm, "
         f"{sigmas:.0f} sigma apart: it soaks up something else"))
-
-
-FRAME_FLOOR = (0.001, math.radians(1.0))  # m, rad: the least uncertainty granted to the samples' frame (an outline
-# modelled to a millimetre and a degree; the negligible sizes of `frame_x`, `frame_yaw`)
 
 
 def _frame_check(s: Scored, frame: FrameFit | None) -> str | None:
