@@ -608,8 +608,8 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
 
 def _unexplained(winner: Scored, loc: Localisation) -> str | None:
     """What the report says when the chosen model still predicts recordings it was not fitted on far above the
-    noise (UNEXPLAINED noise floors): the world differs from every model tried, and a verdict is the best of the
-    catalog, not an explanation. When the nominal residual starts at the first contact in most recordings, the
+    noise (UNEXPLAINED noise floors): the world differs from every model tried, and the verdict is the effect
+    that predicts best, not a complete explanation. When the nominal residual starts at the first contact in most recordings, the
     object model (its outline, size, the frame the recording tracks) is named first: physics left out acts once
     the object moves (a patch, a post, a tilt), an object model error from the moment the rod meets the outline."""
     if winner.cv is None or not winner.cv.n:
@@ -618,8 +618,9 @@ def _unexplained(winner: Scored, loc: Localisation) -> str | None:
     if rms <= UNEXPLAINED:
         return None
     text = (f"the chosen model ({winner.effect}) still predicts the recordings it was not fitted on at {rms:.1f} "
-            f"noise floors: the world differs from every model of the catalog tried, the verdict is the best of "
-            f"them, not an explanation")
+            f"noise floors: the world also differs from the model in ways no effect of the catalog names (contact, "
+            f"the robot's servo, the object model); the verdict is the effect that predicts best, not a complete "
+            f"explanation")
     onsets = [o.features.get("onset_rel") for o in loc.objects if o.significant]
     early = sum(1 for v in onsets if v is not None and v <= FIRST_CONTACT)
     if onsets and early > len(onsets) / 2:

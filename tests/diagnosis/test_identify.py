@@ -99,7 +99,7 @@ def test_without_cross_validation_the_fits_criteria_decide():
 
 
 def test_a_verdict_that_still_mispredicts_says_it_is_no_explanation_and_names_the_object_model_when_early():
-    """A chosen model that predicts unseen recordings at 5 noise floors is the best of the catalog, not an
+    """A chosen model that predicts unseen recordings at 5 noise floors is the best of the catalog, not a complete
     explanation; residuals that start as the rod meets the outline point at the object model, later ones do not."""
     from types import SimpleNamespace
 
@@ -117,6 +117,6 @@ def test_a_verdict_that_still_mispredicts_says_it_is_no_explanation_and_names_th
     late = located(0.4, 0.6, 0.0)
     assert _unexplained(good, early) is None
     text = _unexplained(poor, early)
-    assert "5.0 noise floors" in text and "2 of 3 recordings" in text and "object model" in text
+    assert "5.0 noise floors" in text and "2 of 3 recordings" in text and "first suspect" in text
     text = _unexplained(poor, late)
-    assert "not an explanation" in text and "object model" not in text
+    assert "not a complete explanation" in text and "first suspect" not in text
