@@ -154,6 +154,7 @@ class Identification:
     loader: LoaderEvidence | None = None  # what the loader changed in each recording, read as evidence
     rollouts: dict[str, int] = field(default_factory=dict)  # {simulated, cached}: of `simulations`, run and cached
     floor: str | None = None  # the ordinary model every effect was cross-validated against (None: no cross-validation)
+    frame: FrameFit | None = None  # the recorded frame the pushing samples imply (`outline`), before any simulation
 
     @property
     def partial(self) -> bool:
@@ -227,12 +228,12 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     # where the rod touched the outline while it pushed (the fitted recordings): the recorded frame on the object
     frame = frame_evidence([runner.prepared[i] for i in train], odb, ranked_objects[0])
     if frame is not None and frame.evident:
-        notes.append(frame.sentence(ranked_objects[0]))
+        notes.append(frame.sentence())
         say(notes[-1])
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
                         loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
                         loader.offset_estimate(), loader.offset_evident,
-                        frame.values(ranked_objects[0]) if frame is not None and frame.evident else None)
+                        frame.values() if frame is not None and frame.evident else None)
     none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
@@ -246,7 +247,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         scored = _held_out(runner, held_out, scored)
         return Identification("none", tuple(scored), loc, _names(runner, train), _names(runner, held_out), 1.0, (),
                               tuple(notes), runner.simulations - sims0, time.perf_counter() - started, held_loc,
-                              loader=loader, rollouts=rollouts())
+                              loader=loader, rollouts=rollouts(), frame=frame)
 
     allowed = set(options.effects or EFFECTS) - {"none"}
     focus = ranked_objects[:1]
@@ -382,7 +383,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                      f"{runner.failures[0][0]}: {runner.failures[0][1]})")
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
-                          held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None)
+                          held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame)
 
 
 def _winner_uncertainty(ev: Evaluator, scored: list[Scored], verdict: str, fits: dict) -> list[Scored]:

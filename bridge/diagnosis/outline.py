@@ -17,7 +17,7 @@ verdict; the fits and cross-validation decide.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -50,6 +50,7 @@ class FrameFit:
     count: int
     recordings: int
     at_bound: bool = False  # a bound of the fit stopped it: the samples do not pin the frame (one face pushed)
+    object: str = ""
 
     def sigmas(self) -> float:
         """How far the frame lies from the null, in standard deviations (each component's, the largest)."""
@@ -63,11 +64,13 @@ class FrameFit:
         return (self.sigmas() > NOISE_SIGMAS and size and self.rms_after < 2 / 3 * self.rms_before
                 and not self.at_bound)
 
-    def values(self, target: str) -> dict[str, float]:
-        return {f"frame_x[{target}]": self.x, f"frame_y[{target}]": self.y, f"frame_yaw[{target}]": self.yaw}
+    def values(self) -> dict[str, float]:
+        """By parameter name (the `object_frame` kinds on `object`)."""
+        o = self.object
+        return {f"frame_x[{o}]": self.x, f"frame_y[{o}]": self.y, f"frame_yaw[{o}]": self.yaw}
 
-    def sentence(self, target: str) -> str:
-        return (f"while it pushed, the rod sat on {target}'s outline only with the recorded frame moved: the "
+    def sentence(self) -> str:
+        return (f"while it pushed, the rod sat on {self.object}'s outline only with the recorded frame moved: the "
                 f"recording tracks a frame at ({1e3 * self.x:+.1f}, {1e3 * self.y:+.1f}) mm, turned "
                 f"{math.degrees(self.yaw):+.1f} deg, in the object's model ({self.sigmas():.0f} sigma, from "
                 f"{self.recordings} recordings; the gap's RMS falls from {1e3 * self.rms_before:.2f} to "
@@ -79,7 +82,8 @@ class FrameFit:
                 "gap_m": float(f"{self.gap:.4g}"), "std": [float(f"{v:.3g}") for v in self.std],
                 "sigmas": float(f"{self.sigmas():.3g}"), "evident": self.evident,
                 "gap_rms_m": [float(f"{self.rms_before:.3g}"), float(f"{self.rms_after:.3g}")],
-                "samples": self.count, "recordings": self.recordings, "at_bound": self.at_bound}
+                "samples": self.count, "recordings": self.recordings, "at_bound": self.at_bound,
+                "object": self.object}
 
 
 def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -158,4 +162,5 @@ def frame_evidence(prepared, odb, obj: str) -> FrameFit | None:
     outline = shape_outline(prepared[0].world.objects[obj].type, odb)
     if outline is None:
         return None
-    return fit_frame([pushing_samples(p.trial, obj) for p in prepared], outline)
+    fit = fit_frame([pushing_samples(p.trial, obj) for p in prepared], outline)
+    return None if fit is None else replace(fit, object=obj)

@@ -73,10 +73,15 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
 
 def loader_json(ident: Identification) -> dict[str, Any]:
     """"adjustments": what the loader changed in each recording; "evidence": what that says (a rod that started
-    inside the object beyond the noise), see bridge.diagnosis.loader."""
+    inside the object beyond the noise, the contact gaps: bridge.diagnosis.loader) and where the rod touched the
+    outline while it pushed (the recorded frame: bridge.diagnosis.outline)."""
     if ident.loader is None:
         return {"adjustments": [], "evidence": None}
-    return ident.loader.to_json()
+    out = ident.loader.to_json()
+    if ident.frame is not None:
+        out["evidence"]["frame"] = {**ident.frame.to_json(),
+                                    "sentence": ident.frame.sentence() if ident.frame.evident else None}
+    return out
 
 
 def held_out_rms(s) -> float | None:
@@ -186,8 +191,9 @@ def loader_markdown(data: Mapping[str, Any]) -> list[str]:
                 continue
             rows.append(f"| {entry['recording']} | {a['kind']} | {what} |")
     evidence = (data.get("evidence") or {}).get("start_inside") or {}
+    frame = ((data.get("evidence") or {}).get("frame") or {}).get("sentence")
     sentences = ([evidence["sentence"]] if evidence.get("sentence") else []) + \
-        list(((data.get("evidence") or {}).get("contact") or {}).get("sentences") or ())
+        list(((data.get("evidence") or {}).get("contact") or {}).get("sentences") or ()) + ([frame] if frame else [])
     if not rows and not sentences:
         return []
     lines = ["## What the loader changed, and what the recordings say before any simulation", ""]
