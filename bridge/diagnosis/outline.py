@@ -24,6 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..recording.adjustments import StartClearance
+from .effects.object_frame import SEED_TURN
 from .loader import NOISE_SIGMAS
 
 PLANAR_JOINTS = ("pusher_x", "pusher_y")
@@ -31,7 +32,7 @@ MOVING = 0.3  # a sample pushes when the object moves at this share of its 90th-
 LEVER = 0.05  # m: rotation's share of the speed (|v| + LEVER |omega|)
 SCALE = 0.001  # m: the robust loss's scale (soft L1): a sample a millimetre off the outline counts fully
 MIN_SAMPLES = 30  # pushing samples over all recordings, fewer and nothing is estimated
-YAW_BOUND = 0.35  # rad: the fit's range of d (the `frame_yaw` search's)
+YAW_BOUND = 0.35  # rad: the fit's range of d, the `frame_yaw` search's (`params.kinds.FrameYaw.bounds`)
 
 
 @dataclass(frozen=True)
@@ -135,7 +136,7 @@ def fit_frame(samples: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], outl
     before = gaps(np.array([0.0, 0.0, 0.0, s0]))
     half = 0.5 * float(np.max(np.abs(outline)))
     best = None
-    for d0 in (0.0, -0.07, 0.07):  # as the effect's seeds: the turn acts through where the rod meets the outline
+    for d0 in (0.0, -SEED_TURN, SEED_TURN):  # the effect's seeds: the turn acts through where the rod meets the outline
         fit = least_squares(gaps, np.array([0.0, 0.0, d0, s0]), loss="soft_l1", f_scale=SCALE,
                             bounds=([-half, -half, -YAW_BOUND, -0.05], [half, half, YAW_BOUND, 0.05]))
         if best is None or fit.cost < best.cost:

@@ -949,7 +949,7 @@ class _FrameMember(_Member):
 
 
 class _FrameOffset(_FrameMember):
-    unit, axis = "m", 0
+    unit = "m"
     physical = PhysicalRange(-1.0, 1.0, "m", "in m, object frame: no object on a table reaches 1 m from its centre")
 
     def _half(self, world, odb, target) -> float:
@@ -975,12 +975,12 @@ class _FrameOffset(_FrameMember):
 
 
 class FrameX(_FrameOffset):
-    name, component, axis = "frame_x", "x", 0
+    name, component = "frame_x", "x"
     doc = "the recorded frame's offset from the object's modelled frame, object x (a tracker's markers off centre)"
 
 
 class FrameY(_FrameOffset):
-    name, component, axis = "frame_y", "y", 1
+    name, component = "frame_y", "y"
     doc = "the recorded frame's offset from the object's modelled frame, object y (a tracker's markers off centre)"
 
 
