@@ -368,12 +368,13 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
     scored = _score(fitted, tau)
     scored, fits = _cross_validate(runner, ev, scored, fits, loc, _names(runner, held_out), world, odb)
+    scored = [_with_uncertainty(s, fits[_fit_key(s)], tau) if _fit_key(s) in fits else s for s in scored]
     say(f"cross-validated {sum(s.cv is not None for s in scored)} model(s) [{runner.simulations} simulations]")
     verdict, check, floor = _verdict(scored, world, odb)
     if check:
         notes.append(check)
     scored = _rank(scored, verdict, floor)
-    scored = _winner_uncertainty(ev, scored, verdict, fits)
+    scored = _winner_uncertainty(ev, scored, verdict, fits, tau)
     unexplained = _unexplained(next(s for s in scored if s.effect == verdict), loc)
     if unexplained:
         notes.append(unexplained)
@@ -386,17 +387,29 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                           held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame)
 
 
-def _winner_uncertainty(ev: Evaluator, scored: list[Scored], verdict: str, fits: dict) -> list[Scored]:
-    """The winner's uncertainty from a finite-difference Jacobian at its optimum (the fits leave a secant estimate
-    there, `search.fit`; it is good enough for the models not chosen, whose std is only reported)."""
+def _fit_key(s: Scored) -> tuple[str, str | None]:
+    return ("friction", None) if s.effect == "friction" else (s.effect, s.target)
+
+
+def _with_uncertainty(s: Scored, result: FitResult, tau: float) -> Scored:
+    """`s` with the uncertainty of `result`'s Jacobian (differenced at the optimum for every cross-validated
+    model; the secant estimate a fit leaves there otherwise), inflated by the residual's correlation time: tau
+    correlated samples carry one sample's information (as in `bic`)."""
     from dataclasses import replace
 
+    std = result.std(inflate=tau)
+    return replace(s, std={k: std[k] for k in s.std}, model_std=std)
+
+
+def _winner_uncertainty(ev: Evaluator, scored: list[Scored], verdict: str, fits: dict, tau: float
+                        ) -> list[Scored]:
+    """The winner's uncertainty from a finite-difference Jacobian at its optimum (a cross-validated model has
+    it already; otherwise it is differenced now)."""
     winner = next(s for s in scored if s.effect == verdict)
-    result = fits.get(("friction", None) if verdict == "friction" else (verdict, winner.target))
+    result = fits.get(_fit_key(winner))
     if verdict == "none" or result is None or result.differenced:
         return scored
-    std = differenced(ev, result).std()
-    return [replace(s, std={k: std[k] for k in s.std}, model_std=std) if s is winner else s for s in scored]
+    return [_with_uncertainty(s, differenced(ev, result), tau) if s is winner else s for s in scored]
 
 
 def _friction_parameters(world, odb, target: str) -> list[Parameter]:

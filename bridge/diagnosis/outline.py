@@ -24,12 +24,11 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..recording.adjustments import StartClearance
+from ..recording.mitpush import moving_samples, signed_distance
 from .effects.object_frame import SEED_TURN
 from .loader import NOISE_SIGMAS
 
 PLANAR_JOINTS = ("pusher_x", "pusher_y")
-MOVING = 0.3  # a sample pushes when the object moves at this share of its 90th-percentile speed (mitpush's rule)
-LEVER = 0.05  # m: rotation's share of the speed (|v| + LEVER |omega|)
 SCALE = 0.001  # m: the robust loss's scale (soft L1): a sample a millimetre off the outline counts fully
 MIN_SAMPLES = 30  # pushing samples over all recordings, fewer and nothing is estimated
 YAW_BOUND = 0.35  # rad: the fit's range of d, the `frame_yaw` search's (`params.kinds.FrameYaw.bounds`)
@@ -105,8 +104,7 @@ def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray
     for a in trial.adjustments:
         if isinstance(a, StartClearance) and a.object == obj:
             tip = tip - np.asarray(a.shift)  # the raw recording's rod
-    speed = np.hypot(*np.gradient(xy, times, axis=0).T) + LEVER * np.abs(np.gradient(yaw, times))
-    moving = np.nonzero(speed >= MOVING * np.percentile(speed, 90))[0] if np.any(speed > 0) else np.zeros(0, int)
+    moving = moving_samples(times, xy, yaw)  # the loader's rule for the samples that pin the rod on the outline
     if len(moving) < 5:
         return None
     return tip[moving], xy[moving], yaw[moving]
@@ -115,8 +113,6 @@ def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray
 def fit_frame(samples: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], outline: np.ndarray) -> FrameFit | None:
     """The frame and gap that put every pushing sample on the outline (module docstring), or None with fewer than
     MIN_SAMPLES samples."""
-    from ..recording.mitpush import _signed_distance
-
     samples = [s for s in samples if s is not None]
     if not samples:
         return None
@@ -130,7 +126,7 @@ def fit_frame(samples: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], outl
         heading = yaw - p[2]
         c, s = np.cos(heading), np.sin(heading)
         local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]]) + p[:2]
-        return _signed_distance(local, outline) - p[3]
+        return signed_distance(local, outline) - p[3]
 
     s0 = float(np.median(gaps(np.zeros(4))))
     before = gaps(np.array([0.0, 0.0, 0.0, s0]))

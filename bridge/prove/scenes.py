@@ -182,7 +182,7 @@ def _rod_start(outline: np.ndarray, pose: Sequence[float], point: np.ndarray, d:
     """Where the rod's centre starts on the line through `point` along `d` so that its surface is `clearance`
     from the object's outline (at `pose`) when it moves along d: behind where the line enters the outline, or,
     if the line misses it (a non-convex outline), behind the centre."""
-    from ..recording.mitpush import _signed_distance
+    from ..recording.mitpush import signed_distance
 
     x0, y0, yaw = pose
     c, s = math.cos(yaw), math.sin(yaw)
@@ -194,7 +194,7 @@ def _rod_start(outline: np.ndarray, pose: Sequence[float], point: np.ndarray, d:
     start = point + (entry - PUSHER_RADIUS - clearance) * d
     # a rod that meets a corner before its centre line does: back off until it is clear
     for _ in range(200):
-        if float(_signed_distance(start[None, :], world)[0]) >= PUSHER_RADIUS + clearance - 1e-6:
+        if float(signed_distance(start[None, :], world)[0]) >= PUSHER_RADIUS + clearance - 1e-6:
             break
         start = start - 2e-4 * d
     return start

@@ -32,6 +32,8 @@ from ..errors import RecordingError
 DATASET_ENV = "BRIDGE_MIT_PUSH"
 _DATASET_ENV_ODB = "BRIDGE_DATASET_MIT_PUSH"  # the name the object database loader uses for dataset://mit-push
 PUSHER_RADIUS = 0.00476  # m, the steel rod
+MOVING_SHARE = 0.3  # a sample pushes when the object moves at this share of its 90th-percentile speed
+LEVER = 0.05  # m: rotation's share of that speed (|v| + LEVER |omega|)
 MAX_TIME_JITTER = 0.003  # s, largest backward timestamp step repaired by dropping the row
 QUARTER_TURNS = (0.0, math.pi / 2, math.pi, -math.pi / 2)
 
@@ -415,7 +417,7 @@ def estimate_frame_yaw(recording: PushRecording | Sequence[PushRecording], outli
 def frame_yaw_cost(recording: PushRecording | Sequence[PushRecording], outline: np.ndarray,
                    yaws: Sequence[float], pusher_radius: float = PUSHER_RADIUS) -> np.ndarray:
     """For each yaw offset: median |signed distance of the rod's centre to the outline - pusher_radius| (m)
-    over the samples in which the object is being pushed (`_pushed_samples`), pooled over the recordings."""
+    over the samples in which the object is being pushed (`pushed_samples`), pooled over the recordings."""
     outline = np.asarray(outline, dtype=float)
     if outline.ndim != 2 or outline.shape[1] != 2 or len(outline) < 3:
         raise RecordingError(f"outline must be K x 2 vertices with K >= 3, got shape {outline.shape}")
@@ -424,7 +426,7 @@ def frame_yaw_cost(recording: PushRecording | Sequence[PushRecording], outline: 
         raise RecordingError("frame_yaw_cost needs at least one recording")
     rel_parts, heading_parts = [], []
     for rec in recordings:
-        pushed = _pushed_samples(rec)
+        pushed = pushed_samples(rec)
         rel_parts.append(rec.tip_xy[pushed] - rec.object_pose[pushed, :2])
         heading_parts.append(rec.object_pose[pushed, 2])
     rel, heading = np.concatenate(rel_parts), np.concatenate(heading_parts)
@@ -432,23 +434,32 @@ def frame_yaw_cost(recording: PushRecording | Sequence[PushRecording], outline: 
     for d in np.asarray(yaws, dtype=float).reshape(-1):
         c, s = np.cos(heading + d), np.sin(heading + d)
         local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
-        costs.append(float(np.median(np.abs(_signed_distance(local, outline) - pusher_radius))))
+        costs.append(float(np.median(np.abs(signed_distance(local, outline) - pusher_radius))))
     return np.array(costs)
 
 
-def _pushed_samples(recording: PushRecording) -> np.ndarray:
-    """Indices where the object moves at more than 30 % of its 90th-percentile speed (|v| + 5 cm x |omega|).
+def pushed_samples(recording: PushRecording) -> np.ndarray:
+    """`moving_samples` of a push as recorded."""
+    pose = recording.object_pose
+    return moving_samples(recording.t, pose[:, :2], pose[:, 2])
+
+
+def moving_samples(times: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Indices where the object moves at more than MOVING_SHARE of its 90th-percentile speed (|v| + LEVER x
+    |omega|); none when it never moves.
 
     In a quasi-static push the object moves only while the rod touches it, so these samples (from the
     first contact on) pin down where the rod is on the outline; samples at rest before contact do not.
     """
-    pose = recording.object_pose
-    rates = np.gradient(pose, recording.t, axis=0)
-    speed = np.hypot(rates[:, 0], rates[:, 1]) + 0.05 * np.abs(rates[:, 2])
-    return np.nonzero(speed >= 0.3 * np.percentile(speed, 90))[0]
+    times = np.asarray(times, dtype=float)
+    speed = (np.hypot(*np.gradient(np.asarray(xy, dtype=float), times, axis=0).T)
+             + LEVER * np.abs(np.gradient(np.unwrap(np.asarray(yaw, dtype=float)), times)))
+    if not np.any(speed > 0):
+        return np.zeros(0, dtype=int)
+    return np.nonzero(speed >= MOVING_SHARE * np.percentile(speed, 90))[0]
 
 
-def _signed_distance(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+def signed_distance(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     """Distance of each point to the closed polygon's boundary, negative inside (even-odd rule)."""
     a = polygon
     b = np.roll(polygon, -1, axis=0)

@@ -19,7 +19,7 @@ from ..odb.geometry import z_range
 from ..values import Pose
 from ..world import ObjectState, RobotState, WorldState
 from .adjustments import StartClearance
-from .mitpush import PUSHER_RADIUS, PushRecording, _pushed_samples, _signed_distance, load_outline
+from .mitpush import PUSHER_RADIUS, PushRecording, load_outline, pushed_samples, signed_distance
 from .forces import ObservedForce
 from .observations import ObservedPoses, ObservedTrack
 from .telemetry import Telemetry
@@ -122,16 +122,16 @@ def _contact_gap(push: PushRecording, outline: np.ndarray, frame_yaw: float
     scatter (1.4826 MAD about the median: what the outline's mismatch and the motion capture leave) and the
     outline's mean outward normal there (world frame, unit). A constant calibration offset D moves the median by
     -D.n, not the scatter. (None, None, None) with fewer than 10 pushed samples."""
-    pushed = _pushed_samples(push)
+    pushed = pushed_samples(push)
     if len(pushed) < 10:
         return None, None, None
     heading = push.object_pose[pushed, 2] + frame_yaw
     rel = push.tip_xy[pushed] - push.object_pose[pushed, :2]
     c, s = np.cos(heading), np.sin(heading)
     local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
-    gap = _signed_distance(local, outline) - PUSHER_RADIUS
+    gap = signed_distance(local, outline) - PUSHER_RADIUS
     h = 1e-5  # the outward normal: the signed distance's gradient (central differences)
-    grad = np.column_stack([_signed_distance(local + d, outline) - _signed_distance(local - d, outline)
+    grad = np.column_stack([signed_distance(local + d, outline) - signed_distance(local - d, outline)
                             for d in (np.array([h, 0.0]), np.array([0.0, h]))]) / (2 * h)
     world = np.column_stack([c * grad[:, 0] - s * grad[:, 1], s * grad[:, 0] + c * grad[:, 1]]).mean(axis=0)
     norm = float(np.linalg.norm(world))
@@ -160,7 +160,7 @@ def _start_clearance(push: PushRecording, outline: np.ndarray, frame_yaw: float)
     c, s = math.cos(heading), math.sin(heading)
     rel = push.tip_xy[0] - push.object_pose[0, :2]
     local = np.array([c * rel[0] + s * rel[1], -s * rel[0] + c * rel[1]])
-    distance = float(_signed_distance(local[None, :], outline)[0])
+    distance = float(signed_distance(local[None, :], outline)[0])
     a, b = outline, np.roll(outline, -1, axis=0)
     ab = b - a
     u = np.clip(np.sum((local - a) * ab, axis=1) / np.maximum(np.sum(ab * ab, axis=1), 1e-300), 0.0, 1.0)

@@ -2,12 +2,17 @@
 (the fits themselves are proven in tests/prove)."""
 import math
 
+import numpy as np
+import pytest
+
 from bridge.diagnosis.crossval import Prediction
-from bridge.diagnosis.identify import CV_GAIN, Scored, _acceptable, _cv_reason, _verdict
+from bridge.diagnosis.identify import CV_GAIN, Scored, _acceptable, _cv_reason, _verdict, _with_uncertainty
+from bridge.diagnosis.search import FitResult
+from bridge.params import KINDS, Parameter, ParameterSet
 
 
 def _scored(effect: str, chi2: float, n: int, cv: dict[str, tuple[float, int]] | None = None, **kw) -> Scored:
-    return Scored(effect, "box", kw.pop("params", {}), {}, (), 0, chi2, n,
+    return Scored(effect, "box", kw.pop("params", {}), kw.pop("std", {}), (), 0, chi2, n,
                   cv=Prediction(cv) if cv is not None else None, **kw)
 
 
@@ -120,3 +125,17 @@ def test_a_verdict_that_still_mispredicts_says_it_is_no_explanation_and_names_th
     assert "5.0 noise floors" in text and "2 of 3 recordings" in text and "first suspect" in text
     text = _unexplained(poor, late)
     assert "not a complete explanation" in text and "first suspect" not in text
+
+
+def test_the_reported_uncertainty_counts_correlated_samples_once():
+    """r = J x with unit noise; a residual correlated over tau samples carries a tau-th of the information, so the
+    1 sigma a diagnosis reports (and writes to its scene file, where sampling draws from it) is sqrt(tau) times
+    the white-noise curvature's."""
+    space = ParameterSet((Parameter(KINDS["latency"], "robot", bounds=(-0.3, 0.3), start=0.0, step=0.03,
+                                    effect="latency"),))
+    J = np.ones((100, 1))
+    result = FitResult(space, np.zeros(1), np.full(100, 0.5), J, (), 0)
+    model = _scored("latency", 25.0, 100, params={"latency[robot]": 0.0}, std={"latency[robot]": 0.0})
+    white = _with_uncertainty(model, result, 1.0).std["latency[robot]"]
+    assert white == pytest.approx(0.03 / 10)
+    assert _with_uncertainty(model, result, 4.0).std["latency[robot]"] == pytest.approx(2 * white)

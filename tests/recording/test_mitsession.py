@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bridge.odb import load_object_database
-from bridge.recording.mitpush import PUSHER_RADIUS, _signed_distance, load_outline, load_push
+from bridge.recording.mitpush import PUSHER_RADIUS, load_outline, load_push, signed_distance
 from bridge.recording.mitsession import START_CLEARANCE, push_session
 
 CLEAR = "motion_surface=abs_shape=rect1_a=0_v=75_i=2.000_s=0.800_t=-0.349.h5"  # the rod starts 1.6 mm away
@@ -25,7 +25,7 @@ def _clearance(session, outline):
     rel = np.array(session.telemetry.positions[0]) - np.array(pose.xyz[:2])
     c, s = math.cos(pose.yaw()), math.sin(pose.yaw())
     local = np.array([[c * rel[0] + s * rel[1], -s * rel[0] + c * rel[1]]])
-    return float(_signed_distance(local, outline)[0]) - PUSHER_RADIUS
+    return float(signed_distance(local, outline)[0]) - PUSHER_RADIUS
 
 
 def test_world_telemetry_and_observations(mit_push_root, odb):
