@@ -6,10 +6,11 @@ from its centroid over its hull's faces, triangulating each face from one of its
 tetrahedron that reaches the bottom face cuts one contact polygon, and each polygon is a contact constraint of the
 discrete solver: an ellipse of 61 outline vertices makes ~250 polygons where a rectangle makes 11, and replays 4-5
 times slower. Which vertex the fan starts from is arbitrary (the order of the file's vertices) and it changes a
-push by as much as 1.4 mm and 2.6 deg. The footprint keeps the pressure uniform over the bottom (every bottom
-tetrahedron ends at one vertex at mid-height, as in Drake's own) but fans it from the centre, over a polygon of at
-most `footprint_vertices` vertices with the outline's area and centroid: an isotropic quadrature, a quarter of
-the polygons. The rod and other objects still meet the exact outline (Drake's own `Convex` of the file when the
+push by as much as 1.4 mm and 2.6 deg; a rectangle rests on two bottom tetrahedra, and its pushes hinge on
+rounding. The footprint keeps the pressure uniform over the bottom (every bottom tetrahedron ends at one vertex at
+mid-height, as in Drake's own) but fans it from the centre, over a polygon of `footprint_vertices` vertices with
+the outline's area and centroid (simplified from a finer outline, subdivided from a coarser one): an isotropic
+quadrature. The rod and other objects still meet the exact outline (Drake's own `Convex` of the file when the
 outline is convex, so that contact is unchanged).
 
 A non-convex outline stays non-convex: it becomes a tetrahedral mesh of its own (one fan from the area centroid
@@ -94,7 +95,7 @@ def outline_of(geometry) -> np.ndarray | None:
 def contact_outlines(path: Path, scale: float, hull: bool, vertices: int) -> tuple[np.ndarray | None, np.ndarray | None]:
     """(the outline that needs a mesh of its own, the footprint) of a mesh prism: the outline when it is not convex
     and the type does not ask for the hull (`hull` False; else Drake's `Convex` serves and this is None), the
-    footprint when the outline (or its hull) has more than `vertices` vertices (else None: one geometry)."""
+    footprint of the outline (or its hull) with `vertices` vertices (`footprint_polygon`; None: one geometry)."""
     prism = mesh_prism(path, scale)
     outline = prism.outline
     if hull and not prism.convex:
@@ -102,7 +103,34 @@ def contact_outlines(path: Path, scale: float, hull: bool, vertices: int) -> tup
 
         outline = outline[ConvexHull(outline).vertices]  # counter-clockwise, as scipy lists 2-D hulls
     own = None if (hull or prism.convex) else outline
-    return own, (simplify(outline, vertices) if len(outline) > vertices else None)
+    return own, footprint_polygon(outline, vertices)
+
+
+def footprint_polygon(outline: np.ndarray, n: int) -> np.ndarray | None:
+    """What a prism rests on, fanned from its centre: the outline simplified to `n` vertices when it has more,
+    with its edges subdivided to `n` vertices when it has fewer and is convex (the same polygon, `subdivide`),
+    None for a non-convex outline of at most `n` (its own mesh is fanned from its centre already).
+
+    Why subdivide: Drake's `Convex` of a rectangle rests on two bottom tetrahedra, two contact points for the whole
+    friction moment; the push it gives hinges on where a rigid support's triangles run under it (the MIT sheet
+    moved by centimetres moved a tri1 push's end by 3.8 mm and 2 deg) and on rounding. Sixteen fan triangles spread
+    the quadrature round the centre as the ellipses' footprints do: 0.1 mm and 0.4 deg (docs/rollout.md)."""
+    if len(outline) > n:
+        return simplify(outline, n)
+    return subdivide(outline, n) if is_convex(outline) else None
+
+
+def subdivide(poly: np.ndarray, n: int) -> np.ndarray:
+    """The polygon with vertices added along its edges, shared out by edge length, up to `n` vertices."""
+    poly = np.asarray(poly, dtype=float)
+    k = len(poly)
+    if k >= n:
+        return poly
+    edges = np.roll(poly, -1, axis=0) - poly
+    share = np.linalg.norm(edges, axis=1) / np.linalg.norm(edges, axis=1).sum() * (n - k)
+    cuts = np.floor(share).astype(int)
+    cuts[np.argsort(cuts - share, kind="stable")[: n - k - int(cuts.sum())]] += 1  # largest remainders first
+    return np.array([poly[i] + edges[i] * j / (cuts[i] + 1) for i in range(k) for j in range(cuts[i] + 1)])
 
 
 def _boundary_loop(xy: np.ndarray, faces: list[tuple[int, ...]], tol: float) -> np.ndarray | None:

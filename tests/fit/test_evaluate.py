@@ -3,6 +3,7 @@ and scored, one diagram per structure, the ordinary parameters."""
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -74,10 +75,12 @@ def test_default_parameters_are_the_friction_of_the_moved_objects_and_what_they_
 
 
 def test_nominal_physics_on_a_real_mit_push(mit_push_root, odb, serial):
-    """Nominal values (odb/types/mit_push.yaml) replay a real push to within a few millimetres."""
+    """Nominal values (odb/types/mit_push.yaml) replay a real push to within a few millimetres and degrees along
+    its track (this one: 2.8 mm, 2.7 deg on rect1's 16-gon footprint; 1.8 mm, 1.5 deg when it rested on the two
+    bottom tetrahedra of Drake's `Convex`, docs/real_push.md)."""
     from bridge.rollout import load_trials
 
     name = "motion_surface=abs_shape=rect1_a=0_v=75_i=2.000_s=0.800_t=-0.349.h5"
     (trial,) = load_trials([mit_push_root / "train" / name], odb, max_duration=0.8)
     (evaluation,) = evaluate(serial, [trial], default_spec([trial], odb), [None])
-    assert evaluation.error.e < 0.005, evaluation.error
+    assert evaluation.error.e_t < 0.003 and evaluation.error.e_R < math.radians(3), evaluation.error

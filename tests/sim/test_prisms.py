@@ -12,8 +12,8 @@ from bridge.errors import ObjectDatabaseError  # noqa: E402
 from bridge.names import build_name_map  # noqa: E402
 from bridge.odb import load_object_database  # noqa: E402
 from bridge.sim.contacts import ContactReader  # noqa: E402
-from bridge.sim.prisms import (centroid, convex_pieces, is_convex, is_simple, mesh_prism, prism_tetrahedra,  # noqa: E402
-                               signed_area, simplify)
+from bridge.sim.prisms import (centroid, convex_pieces, footprint_polygon, is_convex, is_simple,  # noqa: E402
+                               mesh_prism, prism_tetrahedra, signed_area, simplify)
 from bridge.sim.scene import SceneValues, SimConfig, build_scene  # noqa: E402
 from bridge.values import Pose  # noqa: E402
 from bridge.world import ObjectState, RobotState, WorldState  # noqa: E402
@@ -206,7 +206,7 @@ def test_a_type_chooses_its_representation(odb_copy, tmp_path):
     scene = build_scene(_world("coarse"), odb, SimConfig())
     assert set(scene.footprints) == {"obj"}
     small = _odb(odb_copy, tmp_path, {"hexagon": (circle(n=6), {})})
-    assert build_scene(_world("hexagon"), small, SimConfig()).footprints == {}  # few vertices: one geometry, as before
+    assert set(build_scene(_world("hexagon"), small, SimConfig()).footprints) == {"obj"}  # subdivided to 16
 
 
 def test_a_bad_representation_is_one_error_naming_the_field(odb_copy, tmp_path):
@@ -220,6 +220,46 @@ def test_a_bad_representation_is_one_error_naming_the_field(odb_copy, tmp_path):
                     "footprint_vertices: 2}}\n")
     with pytest.raises(ObjectDatabaseError, match=r"footprint_vertices must be a whole number >= 3, got 2"):
         load_object_database(odb_copy)
+
+
+def test_a_coarse_outline_rests_on_its_own_polygon_subdivided():
+    square = np.array([(-0.045, -0.045), (0.045, -0.045), (0.045, 0.045), (-0.045, 0.045)])
+    for poly in (square, circle(n=3), circle(n=7)):
+        foot = footprint_polygon(poly, 16)
+        assert len(foot) == 16 and is_convex(poly)
+        assert signed_area(foot) == pytest.approx(signed_area(poly)) and np.allclose(centroid(foot), centroid(poly))
+        assert all(min(np.linalg.norm(np.cross(b - a, v - a)) for a, b in zip(poly, np.roll(poly, -1, axis=0)))
+                   < 1e-12 for v in foot)  # every vertex on an edge of the outline: the same polygon
+    assert footprint_polygon(U_SHAPE, 16) is None  # non-convex: its own mesh is fanned from its centre already
+
+
+def test_a_coarse_outline_pushes_alike_wherever_the_support_is_meshed(odb_copy, tmp_path):
+    """A 90 mm square pushed off its centre line, the MIT sheet (a rigid box) moved under it by 1e-7 m to 3 cm:
+    Drake's `Convex` rests the square on two bottom tetrahedra (two contact points for the friction moment), and
+    the push ends where the sheet's triangles and rounding decide (0.7 mm, 1.4 deg apart); on its subdivided
+    footprint (16 fan triangles) within a third of that (docs/rollout.md "Why coarse outlines are subdivided")."""
+    from bridge.recording.telemetry import Telemetry
+    from bridge.rollout.rollout import Rollout, run_rollout
+    from bridge.sim.simulate import SimOptions
+
+    square = np.array([(-0.045, -0.045), (0.045, -0.045), (0.045, 0.045), (-0.045, 0.045)])
+    odb = _odb(odb_copy, tmp_path, {"square": (square, {}), "square_drake": (square, {"contact": "drake"})})
+    t = np.linspace(0.0, 1.2, 61)
+    x = -0.06 + 0.06 * np.clip(t - 0.1, 0.0, None)
+    telemetry = Telemetry(t, ("pusher_x", "pusher_y"), np.column_stack([x, np.full_like(x, 0.02)]))
+
+    def spread(shape: str) -> np.ndarray:
+        finals = []
+        for dx in (0.0, 1e-7, 1e-4, 0.013, 0.03):
+            world = _world(shape, (x[0], 0.02)).with_poses({"surface": Pose((dx, 0.7 * dx, -0.005))})
+            final = run_rollout(Rollout(world, telemetry), odb, SimOptions(sleep=False)).final_poses["obj"]
+            finals.append((*final.xyz[:2], final.yaw()))
+        finals = np.array(finals)
+        assert finals[0, 0] > 0.02 and abs(finals[0, 2]) > math.radians(2)  # pushed and turned
+        return np.ptp(finals, axis=0)
+
+    footprint, convex = spread("square"), spread("square_drake")
+    assert np.all(footprint < convex / 3) and max(footprint[:2]) < 2e-4 and footprint[2] < math.radians(0.5)
 
 
 # --- on the MIT recordings -------------------------------------------------------------------------------------
