@@ -43,8 +43,8 @@ from ..sim.simulate import SimOptions
 from ..values import Pose
 from ..world import world_to_dict
 from .mismatch import Mismatch, Sensors, draw_mismatch
-from .scenes import (MAGNITUDES, NOISE_FORCE, NOISE_POSITION, NOISE_ROTATION, OBS_RATE, Case, SceneSpec, design_pushes,
-                     nominal_world, scene_spec)
+from .scenes import (MAGNITUDES, NOISE_FORCE, NOISE_POSITION, NOISE_ROTATION, OBS_RATE, TEL_RATE, Case, SceneSpec,
+                     design_pushes, nominal_world, scene_spec)
 
 
 def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator) -> Truth:
@@ -94,15 +94,22 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
         if mismatched:
             exact = mismatch.apply(exact, spec.object, spec.surface, odb)
         true, recorded = effect.conceal(truth, spec, odb, exact)
+        transformed = recorded is not true.telemetry
         if spec.recorder == "mit":
             paths.append(_write_mit_push(folder / f"rec_{k:02d}.h5", spec, odb, effect, truth, true, exact, mismatch,
-                                         rng, with_force=force_noise is not None,
-                                         transformed=recorded is not true.telemetry))
+                                         rng, with_force=force_noise is not None, transformed=transformed))
             continue
-        result = run_rollout(true, odb, SimOptions(sample_rate=OBS_RATE, end=float(push.times[-1]), robot_force=True))
-        times, force = result.times, result.robot_force
-        observed = noisy_track(spec.object, times, effect.recorded_track(truth, result.tracks[spec.object]), rng,
-                               noise if not mismatched else mismatch.sensors)
+        # a mismatched world's servo is not the model's: its telemetry is what the encoders read, as a real
+        # robot's (the matched proof keeps the command, which the model's own servo follows exactly as the world's)
+        rate = TEL_RATE if mismatched else OBS_RATE
+        result = run_rollout(true, odb, SimOptions(sample_rate=rate, end=float(push.times[-1]), robot_force=True,
+                                                   joint_track=mismatched))
+        if mismatched:
+            recorded = _encoders(result, true.telemetry.joint_names, effect, truth, spec, odb, exact, transformed)
+        rows = _every(len(result.times), round(rate / OBS_RATE))
+        times, force = result.times[rows], result.robot_force[rows]
+        observed = noisy_track(spec.object, times, effect.recorded_track(truth, result.tracks[spec.object][rows]),
+                               rng, noise if not mismatched else mismatch.sensors)
         sensed = None
         if force_noise is not None:  # a planar force sensor on the rod: fx, fy
             sensors = mismatch.sensors
@@ -124,6 +131,21 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
     return paths, truth
 
 
+def _encoders(result, joints, effect, truth: Truth, spec: SceneSpec, odb: ObjectDatabase, exact: Rollout,
+              transformed: bool) -> Telemetry:
+    """The robot's `joints` as its encoders read them in a replay (`joint_track`): a servo that lags its command
+    is recorded as it moved. When the effect's recorder does not read the joints as they are (`transformed`: a
+    clock that stamps late, an encoder offset), its `conceal` is applied to the measured joints."""
+    columns = [result.joint_names.index(j) for j in joints]
+    measured = Telemetry(result.times, tuple(joints), result.joint_track[:, columns])
+    return effect.conceal(truth, spec, odb, exact.with_telemetry(measured))[1] if transformed else measured
+
+
+def _every(n: int, k: int) -> np.ndarray:
+    """Every k-th of n samples, the last one always."""
+    return np.unique(np.append(np.arange(0, n, max(1, k)), n - 1))
+
+
 MIT_RATE = 250.0  # Hz of the MIT pushing dataset's streams
 UNIX_START = 1.46e9  # s: the recordings' clock starts somewhere in 2016, as the dataset's
 
@@ -140,12 +162,7 @@ def _write_mit_push(path: Path, spec: SceneSpec, odb: ObjectDatabase, effect, tr
     result = run_rollout(true, odb, SimOptions(sample_rate=MIT_RATE, end=end, robot_force=with_force,
                                                joint_track=True))
     times = result.times
-    columns = [result.joint_names.index(j) for j in ("pusher_x", "pusher_y")]
-    measured = Telemetry(times, ("pusher_x", "pusher_y"), result.joint_track[:, columns])
-    tip = measured.positions
-    if transformed:
-        _, recorded = effect.conceal(truth, spec, odb, exact.with_telemetry(measured))
-        tip = recorded.sample(times)
+    tip = _encoders(result, ("pusher_x", "pusher_y"), effect, truth, spec, odb, exact, transformed).sample(times)
     sensors = mismatch.sensors
     dxyz, drot = sensors.pose_noise(times, rng)
     track = effect.recorded_track(truth, result.tracks[spec.object])

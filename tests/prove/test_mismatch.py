@@ -102,3 +102,30 @@ def test_a_large_calibration_offset_is_kept_as_evidence_not_repaired_away(odb, t
     implied = np.array([estimate["pusher_x"], estimate["pusher_y"]])
     assert np.linalg.norm(implied - offset) < 1e-3, (implied, offset)
     assert any("calibration offset" in s for s in evidence.sentences())
+
+
+@pytest.mark.slow
+def test_a_mismatched_tabletop_world_records_where_its_slow_servo_put_the_rod(odb, tmp_path):
+    """A real robot's telemetry is its encoders. A generated world whose servo lags its command (the
+    mismatch's gains) must record where the rod went, not the command: otherwise the recording claims a rod
+    the world never had, and no effect can explain what the object did."""
+    from bridge.diagnosis.effects import get_effect
+    from bridge.prove.generate import _encoders
+    from bridge.prove.scenes import design_pushes, nominal_world, scene_spec
+    from bridge.recording.telemetry import Telemetry
+    from bridge.rollout.rollout import Rollout, run_rollout
+    from bridge.sim.extras import RobotGains
+    from bridge.sim.simulate import SimOptions
+
+    spec = scene_spec("tabletop", odb, varied=True)
+    push = design_pushes(spec, odb, np.random.default_rng(3), 1)[0]
+    command = Telemetry(push.times, ("pusher_x", "pusher_y"), push.path)
+    slow = Rollout(nominal_world(spec, odb, push.start), command).with_extras(RobotGains(0.05, math.sqrt(0.05)))
+    result = run_rollout(slow, odb, SimOptions(sample_rate=100.0, end=float(push.times[-1]), joint_track=True))
+    effect = get_effect("none")
+    truth = effect.draw_truth(spec, odb, np.random.default_rng(0), 1, 1.0)
+    recorded = _encoders(result, command.joint_names, effect, truth, spec, odb, slow, False)
+    lag = np.linalg.norm(recorded.sample(push.times) - push.path, axis=1)
+    assert lag.max() > 0.001, lag.max()  # the servo fell behind its command while it moved ...
+    columns = [result.joint_names.index(j) for j in command.joint_names]
+    assert np.allclose(recorded.sample(result.times), result.joint_track[:, columns])  # ... and that is recorded
