@@ -49,7 +49,8 @@ logging.getLogger("drake").addFilter(_FloorNotice())
 
 @dataclass(frozen=True)
 class SimConfig:
-    """Simulator settings. The defaults were probed on this project's scenes (see docs/simulation.md)."""
+    """Simulator settings. The defaults were probed on this project's scenes (README, "Simulation defaults";
+    docs/speed.md, "Simulator settings against the session")."""
 
     time_step: float = 0.002
     contact_model: str = "hydroelastic_with_fallback"
