@@ -34,7 +34,7 @@ from ..odb import ObjectDatabase
 from ..odb.geometry import support, z_range
 from ..odb.ranges import DISSIPATION, FRICTION, HYDROELASTIC_MODULUS, MASS, PhysicalRange
 from ..rollout.rollout import Rollout
-from ..sim.extras import SurfacePatch, WeldedShape
+from ..sim.extras import ObjectScale, SurfacePatch, WeldedShape
 from ..sim.shapes import mass_properties
 from ..sim.anisotropy import AnisotropicFriction
 from ..sim.friction import combined_friction, pair_coefficients
@@ -999,6 +999,34 @@ class FrameYaw(_FrameMember):
         return 0.0175  # 1 deg
 
 
+class ObjectScaleKind(Kind):
+    """The object's size relative to its type's: its geometry scaled about the centre of its bottom (the same
+    mass, the inertia scaled with it; `sim.extras.ObjectScale`); a new scene per value."""
+
+    name, targets = "object_scale", "free objects"
+    doc = ("an object's size relative to its type's model (an outline or mesh drawn at another size, another "
+           "instance of the part): its whole geometry scaled about the centre of its bottom, the same mass")
+    physical = PhysicalRange(0.5, 2.0, "", "a share of the modelled size: half to twice the model is another object")
+    null_is_world = True
+
+    def apply(self, value, names, rollout, odb):
+        if value == 1.0:
+            return rollout
+        return rollout.with_extras(*(ObjectScale(n, float(value)) for n in names))
+
+    def null(self, world, odb, target):
+        return 1.0
+
+    def bounds(self, world, odb, target):
+        return 0.85, 1.15  # a model 15 % off in size is another object, not a drawing error
+
+    def step(self, world, odb, target):
+        return 0.01
+
+    def negligible(self, world, odb, target):
+        return 0.005  # half a millimetre on a 10 cm object
+
+
 # --- the registry -------------------------------------------------------------------------------------------
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Friction(), DynamicFriction(), Dissipation(), HydroelasticModulus(),
@@ -1010,7 +1038,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     SupportScale(), SupportX(), SupportY(),
     AnisoC(), AnisoS(),
     SlidingFriction(), RobotFriction(),
-    FrameX(), FrameY(), FrameYaw(),
+    FrameX(), FrameY(), FrameYaw(), ObjectScaleKind(),
 )}
 
 

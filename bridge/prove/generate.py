@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..diagnosis.effects import Truth, get_effect
+from ..diagnosis.effects import Truth, get_effect, pname
 from ..files import dump_yaml, write_atomic
 from ..odb import ObjectDatabase
 from ..recording.forces import ObservedForce
@@ -88,7 +88,8 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
         mismatch = replace(mismatch, sensors=Sensors(position=noise[0], rotation=noise[1], force=force_noise or 0.0))
     effect = get_effect(case.effect)
     paths = []
-    for k, push in enumerate(design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local)):
+    real_size = truth.params.get(pname("object_scale", spec.object), 1.0)  # pushes start clear of the real object
+    for k, push in enumerate(design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local, scale=real_size)):
         exact = Rollout(nominal_world(spec, odb, push.start), Telemetry(push.times, ("pusher_x", "pusher_y"), push.path),
                         name=f"{case.name}/rec_{k:02d}")
         if mismatched:

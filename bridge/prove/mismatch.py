@@ -16,7 +16,8 @@ database's model as always.
 | contact dissipation     | 0.3 .. 5 s/m                                            | the database's (1)     |
 | density                 | x 0.92 .. 1.08                                          | the database's         |
 | base frictions          | surface pair x 1.3 .. 2 or / 1.3 .. 2; object x 0.7 .. 1.4 | the database's      |
-| pusher servo            | PD gains x 0.1 .. 3 (damping ratio kept)                | the model's gains      |
+| pusher servo            | PD gains x 0.1 .. 3 (damping ratio kept); the recorded | the model's gains      |
+|                         | telemetry is what the encoders read                    |                        |
 | motion capture          | white noise 0.05 .. 0.4 mm, 0.5 .. 3 mrad; a slow drift  | -                      |
 |                         | (AR(1), 0.1 s) up to 0.3 mm; rare clock steps back     |                        |
 | force sensor            | noise 0.02 .. 0.2 N, gain x 0.93 .. 1.07                | -                      |

@@ -53,9 +53,9 @@ WORLDS = ("matched", "mismatched", "both")
 # aspect ratios, a hexagon, a triangle and a non-convex outline
 MISMATCHED_SHAPES = ("rect1", "ellip1", "ellip3", "hex", "tri1", "butter")
 MISMATCHED_EFFECTS = PLANAR_EFFECTS + ("pressure_distribution", "anisotropic_friction")
-# errors of the object model (what the recording tracks on the object): after each seed's cases above, so that
+# errors of the object model (what the recording tracks on the object, its size): after each seed's cases above, so that
 # adding one leaves every earlier case's shape (and name) as it was
-OBJECT_MODEL_EFFECTS = ("object_frame",)
+OBJECT_MODEL_EFFECTS = ("object_frame", "object_scale")
 CI_SHAPE = "steel_block"  # a dataset-free box in the MIT format (odb/types/proof.yaml)
 TABLETOP_MISMATCHED = ("none", "friction", "mass", "com_offset", "surface_tilt", "friction_patch", "latency",
                        "pusher_offset", "hidden_obstacle")
@@ -100,7 +100,7 @@ def _mismatched_cases(size: str, seed: int) -> list[Case]:
         cases += [Case(f"mit_{MISMATCHED_SHAPES[(k + s) % len(MISMATCHED_SHAPES)]}", e, m, seed + s, "mismatched")
                   for k, (m, e) in enumerate(pairs)]
         cases += [Case(f"mit_{shape}", "none", "medium", seed + s, "mismatched") for shape in MISMATCHED_SHAPES]
-        model_pairs = [(m, e) for m in MAGNITUDES for e in OBJECT_MODEL_EFFECTS]
+        model_pairs = [(m, e) for e in OBJECT_MODEL_EFFECTS for m in MAGNITUDES]  # a new effect after the others
         cases += [Case(f"mit_{MISMATCHED_SHAPES[(k + 2 * s) % len(MISMATCHED_SHAPES)]}", e, m, seed + s, "mismatched")
                   for k, (m, e) in enumerate(model_pairs)]
         if s == 1:  # the tabletop (the small box on the table, the rod 3 cm above it; recording folders): every

@@ -143,17 +143,18 @@ def nominal_world(spec: SceneSpec, odb: ObjectDatabase, start: Sequence[float]) 
 
 # --- push designs -------------------------------------------------------------------------------------------
 def design_pushes(spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator, n: int,
-                  gap: tuple[float, float] = (0.004, 0.004), *, local: bool = False) -> list[Push]:
+                  gap: tuple[float, float] = (0.004, 0.004), *, local: bool = False, scale: float = 1.0) -> list[Push]:
     """Pushes at varied contact points, speeds and lengths, each ending with the rod stopping dead so the object
     slides on: mostly along +x (within +-30 deg, the object within +-23 deg), or, in a scene of `varied`
     mechanisms, in any direction with the object at any yaw (within +-60 deg of +x for a `local` effect, whose
     place lies that way, so that most pushes pass it). The rod starts `gap` (drawn in the range) clear of the
-    object's outline (`prisms.outline_of`; any prism, convex or not)."""
+    object's outline (`prisms.outline_of`; any prism, convex or not), of the real object `scale` times the model's
+    size when the case conceals one (`object_scale`)."""
     yaw_range, push_range = (0.4, 0.5) if not spec.varied else (math.pi, 1.05 if local else math.pi)
     from ..sim.prisms import outline_of
 
-    outline = outline_of(odb.get(spec.object_type).geometry)
-    half = half_extents(odb.get(spec.object_type).geometry)[:2]
+    outline = scale * outline_of(odb.get(spec.object_type).geometry)
+    half = scale * half_extents(odb.get(spec.object_type).geometry)[:2]
     pushes = []
     for _ in range(n):
         x0 = spec.centre[0] + rng.uniform(-spec.spread[0], spec.spread[0])

@@ -158,3 +158,23 @@ class RobotGains:
             if actuator.has_controller():
                 gains = actuator.get_controller_gains()
                 actuator.set_controller_gains(PdControllerGains(p=gains.p * self.p_scale, d=gains.d * self.d_scale))
+
+
+@dataclass(frozen=True)
+class ObjectScale:
+    """Free object `object` is `scale` times the size its type says (an error of the object model: a mesh or
+    outline drawn at another size, another instance of the part). Its whole geometry (collision, footprint,
+    visual) is scaled about the centre of its bottom, so it still rests where the world puts it; its mass stays
+    the database's (the object weighs what it weighs) and its inertia scales with the size (`shapes.scaled_type`).
+    Applied where the object is added (`scene.add_object`); `add_to` checks that the object is there."""
+
+    object: str
+    scale: float = 1.0
+
+    def add_to(self, plant, world, odb, config) -> None:
+        if self.object not in world.objects or odb.get(world.objects[self.object].type).fixed:
+            free = [n for n, o in world.objects.items() if not odb.get(o.type).fixed]
+            raise SceneError(f"object scale: no free object {self.object!r} in world {world.name!r}; free objects: "
+                             f"{', '.join(free) or 'none'}")
+        if not (np.isfinite(self.scale) and 0.5 <= self.scale <= 2.0):
+            raise SceneError(f"object scale of {self.object!r} must be in [0.5, 2], got {self.scale!r}")

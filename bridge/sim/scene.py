@@ -31,7 +31,8 @@ from ..errors import SceneError
 from ..odb import ObjectDatabase, ObjectType
 from ..values import Pose
 from ..world import WorldState
-from .shapes import check_shape, drake_shape, mass_properties
+from .extras import ObjectScale
+from .shapes import check_shape, drake_shape, mass_properties, scaled_type
 from .sources import ConstantForces, DesiredState
 from .support import SupportPressure
 
@@ -268,30 +269,39 @@ class Scene:
             self.scene_graph.AssignRole(sg_ctx, self.plant.get_source_id(), gid, props, RoleAssign.kReplace)
 
 
-def _spatial_inertia(odb: ObjectDatabase, type_name: str) -> SpatialInertia:
+def _spatial_inertia(odb: ObjectDatabase, type_name: str, scale: float = 1.0, lift: float = 0.0) -> SpatialInertia:
+    """The type's mass properties about the body origin; of its geometry `scale` times as large and raised by
+    `lift` (`shapes.scaled_type`): the same mass, the centre of mass moved with the geometry, the inertia about
+    it times scale^2."""
     mp = mass_properties(odb, type_name)
-    I = mp.inertia
+    I = mp.inertia * scale ** 2
     G = UnitInertia(I[0, 0] / mp.mass, I[1, 1] / mp.mass, I[2, 2] / mp.mass,
                     I[0, 1] / mp.mass, I[0, 2] / mp.mass, I[1, 2] / mp.mass)
-    return SpatialInertia(mp.mass, np.zeros(3), G).Shift(-np.asarray(mp.com))  # about the body origin
+    com = scale * np.asarray(mp.com) + np.array([0.0, 0.0, lift])
+    return SpatialInertia(mp.mass, np.zeros(3), G).Shift(-com)  # about the body origin
 
 
 def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDatabase, config: SimConfig,
-               footprints: dict | None = None, support=None):
+               footprints: dict | None = None, support=None, scale: float = 1.0):
     """A free body (or anchored geometry for fixtures) with collision and visual geometry. A compliant mesh prism
     gets its outline and, when it has more vertices than the footprint may, a footprint as a second collision
     geometry (`contact_shapes`); so does any free object resting on a `support` (`sim/support.py`);
-    `footprints[name]` then says which is which, for `filter_footprints`."""
+    `footprints[name]` then says which is which, for `filter_footprints`. A free object's geometry may be
+    `scale` times its type's (`extras.ObjectScale`)."""
     g = obj_type.geometry
     if g is None:
         raise SceneError(f"object {name!r} of type {obj_type.name!r} has no geometry", source=str(obj_type.source))
     if obj_type.fixed:  # a mesh Drake cannot read names the type (a free body's does in mass_properties)
         check_shape(obj_type)
-    shape = drake_shape(obj_type)
     if obj_type.fixed:
         body, X_BG = plant.world_body(), to_drake(pose)
     else:
-        body, X_BG = plant.AddRigidBody(name, _spatial_inertia(odb, obj_type.name)), RigidTransform()
+        lift = 0.0
+        if scale != 1.0:
+            obj_type, lift = scaled_type(obj_type, scale)
+        body = plant.AddRigidBody(name, _spatial_inertia(odb, obj_type.name, scale, lift))
+        X_BG = RigidTransform([0.0, 0.0, lift])
+    shape = drake_shape(obj_type)
     props = proximity(obj_type, config)
     outline, footprint = contact_shapes(obj_type, config, support) if not obj_type.fixed else (shape, None)
     gid = plant.RegisterCollisionGeometry(body, X_BG, outline, f"{name}/collision", props)
@@ -443,8 +453,10 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
     plant, scene_graph = AddMultibodyPlant(plant_config, builder)
     bodies, geometries, footprints = {}, {}, {}
     supports = {e.object: e for e in extras if isinstance(e, SupportPressure)}
+    scales = {e.object: e.scale for e in extras if isinstance(e, ObjectScale)}
     for name, obj in world.objects.items():
-        body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config, footprints, supports.get(name))
+        body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config, footprints, supports.get(name),
+                                scales.get(name, 1.0))
         geometries[name] = gids
         if body is not None:
             bodies[name] = body

@@ -151,3 +151,21 @@ def _check_inertia(mass: float, inertia: np.ndarray, where: dict, *, given: bool
             reason = (f"the inertia computed from the geometry is degenerate (principal moments {text} kg m^2): is the "
                       "mesh closed, with its faces pointing outwards?")
         raise ObjectDatabaseError(reason, **where)
+
+
+def scaled_type(obj_type: ObjectType, scale: float) -> tuple[ObjectType, float]:
+    """(the type with its geometry `scale` times as large, the height (m) by which the scaled geometry is raised
+    in the body frame so that its bottom stays where the type's is). Primitives scale their sizes, meshes their
+    scale factor; everything in the body frame scales about its origin, then rises by (1 - scale) z_bottom."""
+    from dataclasses import replace
+
+    from ..odb.geometry import z_range
+    from ..values import Pose
+
+    g = obj_type.geometry
+    bottom = z_range(g, Pose())[0]
+    if g.shape == "mesh":
+        geometry = replace(g, scale=g.scale * scale)
+    else:
+        geometry = replace(g, size=tuple(scale * v for v in g.size))
+    return replace(obj_type, geometry=geometry), (1.0 - scale) * bottom

@@ -21,6 +21,7 @@ from .latency import Latency
 from .mass import Mass
 from .none import NoEffect
 from .object_frame import ObjectFrameEffect
+from .object_scale import ObjectScaleEffect
 from .pressure_distribution import PressureDistribution
 from .pusher_offset import PusherOffset
 from .surface_tilt import SurfaceTilt
@@ -38,6 +39,7 @@ EFFECTS: dict[str, Effect] = {
     "pressure_distribution": PressureDistribution(),
     "anisotropic_friction": AnisotropicFrictionEffect(),
     "object_frame": ObjectFrameEffect(),
+    "object_scale": ObjectScaleEffect(),
 }
 
 __all__ = ["EFFECTS", "Effect", "Evidence", "Recovery", "Truth", "get_effect", "pname", "register_effect"]
