@@ -230,10 +230,12 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     if frame is not None and frame.evident:
         notes.append(frame.sentence())
         say(notes[-1])
+    gaps = loader.contact_fit()
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
                         loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
                         loader.offset_estimate(), loader.offset_evident,
-                        frame.values() if frame is not None and frame.evident else None)
+                        frame.values() if frame is not None and frame.evident else None,
+                        gaps.inflation if gaps is not None and gaps.inflation_evident else None)
     none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"

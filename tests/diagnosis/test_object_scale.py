@@ -48,6 +48,19 @@ def test_a_scale_on_a_fixture_is_refused(planar_world, odb):
     assert "no free object 'table'" in str(err.value)
 
 
+def test_a_rod_that_pushed_outside_the_outline_on_every_side_seeds_a_larger_object(planar_world, odb):
+    """The contact gaps (read before any simulation) put the rod 2 mm outside the block's outline on every side:
+    the size that puts it there is a seed, and the signature says the object model is the suspect."""
+    from bridge.sim.prisms import outline_of, signed_area
+
+    effect = get_effect("object_scale")
+    plain, seen = Evidence((), planar_world, odb), Evidence((), planar_world, odb, inflation=0.002)
+    radius = (abs(signed_area(outline_of(odb.get(planar_world.objects["block"].type).geometry))) / np.pi) ** 0.5
+    assert effect.seeds(seen, "block")[0]["object_scale[block]"] == pytest.approx(1.0 + 0.002 / radius)
+    assert len(effect.seeds(plain, "block")) == 3
+    assert effect.signature(seen, "block") > effect.signature(plain, "block")
+
+
 @pytest.mark.slow
 def test_recordings_of_an_object_of_another_size_are_fitted_back(odb, tmp_path):
     """Recordings of a block 5 % smaller than its model (the proof's medium size, the pushes placed clear of the

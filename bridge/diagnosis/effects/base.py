@@ -54,6 +54,9 @@ class Evidence:
     # the recorded frame on the focus object that the pushing samples imply (`diagnosis.outline`), by parameter
     # name, when they make it evident (None otherwise)
     frame: Mapping[str, float] | None = None
+    # how far outside (> 0) or inside the modelled outline the rod pushed on every side (m, `loader.ContactFit`),
+    # when the contact gaps make it evident (None otherwise): a larger or smaller object, or a stiffer contact
+    inflation: float | None = None
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))

@@ -11,6 +11,10 @@ recording (a larger object the rod was placed clear of) or a gap the rod crosses
 """
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
 
 SCALES = ((0.97, 1.03), (0.95, 1.05), (0.92, 1.08))  # the proof's sizes relative to the model (small to large)
@@ -30,17 +34,33 @@ class ObjectScaleEffect(Effect):
         return movable_observed(world, odb, observed)
 
     def signature(self, evidence: Evidence, target: str) -> float:
-        """An early onset, raised by the share of recordings whose rod started inside the modelled outline."""
+        """An early onset, raised by the share of recordings whose rod started inside the modelled outline, and
+        high when the rod pushed outside (inside) the outline on every side (`Evidence.inflation`; a stiffer or
+        softer contact does that too, by less)."""
+        if evidence.inflation is not None:
+            return 0.8
         early = 1.0 - min(1.0, max(0.0, evidence.mean("onset_rel", 0.0)))
         base = 0.1 + 0.25 * early
         return base + (0.5 - base) * min(1.0, max(0.0, evidence.started_inside))
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """The model's size and SEED_STEP either way: where the rod meets the outline moves the whole push at once,
-        so the residual is not a smooth function of the size at the null when a push hardly touches."""
+        """The model's size and SEED_STEP either way (where the rod meets the outline moves the whole push at once,
+        so the residual is not a smooth function of the size at the null when a push hardly touches); and, when
+        the contact gaps show the rod outside (inside) the outline on every side, the size that puts it there:
+        1 + inflation / the outline's area-equivalent radius."""
         null = self.null_values(evidence.world, evidence.odb, target)
         key = pname("object_scale", target)
-        return [null, {**null, key: 1.0 - SEED_STEP}, {**null, key: 1.0 + SEED_STEP}]
+        seeds = [null, {**null, key: 1.0 - SEED_STEP}, {**null, key: 1.0 + SEED_STEP}]
+        if evidence.inflation is None or target not in evidence.world.objects:
+            return seeds
+        from ...sim.prisms import outline_of, signed_area
+
+        outline = outline_of(evidence.odb.get(evidence.world.objects[target].type).geometry)
+        if outline is None:
+            return seeds
+        radius = math.sqrt(abs(signed_area(outline)) / math.pi)
+        read = float(np.clip(1.0 + evidence.inflation / radius, 0.86, 1.14))
+        return [{**null, key: read}] + seeds
 
     def describe(self, world, odb, target, values):
         return {"size_percent": 100.0 * (values.get(pname("object_scale", target), 1.0) - 1.0)}
