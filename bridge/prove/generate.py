@@ -16,6 +16,7 @@ the model the diagnosis fits wherever it can (the effect's own `conceal`, in its
 | hidden_obstacle | a welded box of random size and yaw                         | a welded post of radius 15 mm                |
 | object_frame    | the recorder reports a frame fixed on the body off its      | the body started from the recorded pose      |
 | (cont.)         | centre and turned (`Effect.recorded_track`)                 | moved, compared in the frame (`frames`)      |
+| object_scale    | the object another size (pushes designed around it)         | the same: a size has no other mechanism      |
 
 Observations are the true simulation sampled at 50 Hz with Gaussian measurement noise (position and a small
 random rotation), and the contact force on the rod as a planar force sensor reads it (fx, fy, with noise). The
