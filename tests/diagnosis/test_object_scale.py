@@ -87,3 +87,14 @@ def test_recordings_of_an_object_of_another_size_are_fitted_back(odb, tmp_path):
     assert sized.chi2 < 1.2 * exact, (sized.values(), sized.chi2 / n, exact / n)
     recovery = effect.recovered(truth, sized.values(), (), world, odb)
     assert recovery.ok, recovery.text
+
+
+def test_a_size_no_object_can_have_is_refused_naming_the_file_and_field(planar_world, odb):
+    from bridge.errors import ParameterError
+    from bridge.params import check_values, parse_params
+
+    with pytest.raises(ParameterError) as err:
+        spec = parse_params({"params": [{"kind": "object_scale", "target": "block", "value": 3.0}]}, "size.yaml")
+        check_values(spec, [Rollout(planar_world, None)], odb)
+    text = str(err.value)
+    assert "size.yaml" in text and "params[0].value" in text and "object_scale" in text
