@@ -617,7 +617,10 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
     if accepted:
         best = max(accepted, key=lambda m: (m.cv.compare(floor.cv) if m.cv is not None and floor.cv is not None
                                             else m.score))
-        return best.effect, ("; ".join(reasons) + f"; {best.effect} is") if reasons else None, floor
+        why = (f"{best.effect} removes {100 * best.cv.compare(floor.cv):.0f} % of what {floor.effect} leaves on "
+               f"recordings neither was fitted on" if best.cv is not None and floor.cv is not None
+               else f"{best.effect} is worth its parameters against {floor.effect}")
+        return best.effect, ("; ".join(reasons) + f"; {why}: the verdict") if reasons else None, floor
     tail = "no effect of the catalog is confirmed" + ("" if floor is none else ", the fitted friction is the model")
     return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
 

@@ -91,8 +91,11 @@ def test_the_verdict_is_the_floor_when_no_effect_predicts_better_and_the_best_pr
                    params={"obstacle_x[box]": 0.2}, score=15.0)
     better = _scored("surface_tilt", 7.0 * n, 3 * n, {"a": (1.5 * n, n), "b": (2.0 * n, n), "c": (2.5 * n, n)},
                      params={"surface_slope_x[box]": 0.02}, score=12.0)
-    verdict, _, _ = _verdict([spurious, real, better, friction, none], None, None)
+    verdict, note, _ = _verdict([spurious, real, better, friction, none], None, None)
     assert verdict == "surface_tilt"  # the better prediction wins over the better score
+    # the note says why the refused were refused and what the verdict gains, as a whole sentence
+    assert "latency removes" in note and note.endswith("surface_tilt removes 82 % of what friction leaves on "
+                                                       "recordings neither was fitted on: the verdict")
 
 
 def test_without_cross_validation_the_fits_criteria_decide():
