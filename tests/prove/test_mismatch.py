@@ -71,6 +71,26 @@ def test_a_rod_held_back_by_a_hidden_obstacle_jams_and_places_it(odb, tmp_path):
 
 
 @pytest.mark.slow
+def test_the_first_obstacle_seed_touches_the_jammed_object_where_the_post_stands(odb, tmp_path):
+    """A post of the model's radius that held back two pushes: the first seed is the one point touching both
+    jammed poses' outlines, millimetres from the post. Placed at the objects' farthest reach plus a radius
+    instead, it stood 20 mm off, beyond where the simulated object goes: no residual changed, the screen could not
+    move it, and a rect1 held back in seven of eight pushes was diagnosed `none` (docs/diagnosis.md, section 6)."""
+    from bridge.diagnosis.effects import Evidence, get_effect
+    from bridge.prove.generate import generate_case
+
+    paths, truth = generate_case(Case(SHAPE, "hidden_obstacle", "medium", 1, "mismatched"), odb, tmp_path, 3)
+    trials, loc = _located(paths, odb)
+    assert sum(f.jam_s is not None for f in loc.forces) >= 2, [f.to_json() for f in loc.forces]
+    evidence = Evidence(tuple(dict(o.features) for o in loc.objects), trials[0].world, odb, loc.force_scale())
+    first = get_effect("hidden_obstacle").seeds(evidence, "surface")[0]
+    off = math.hypot(first["obstacle_x[surface]"] - truth.params["obstacle_x[surface]"],
+                     first["obstacle_y[surface]"] - truth.params["obstacle_y[surface]"])
+    assert truth.extra["shape"] == "cylinder" and truth.extra["size"] == pytest.approx(0.03)  # the model's post
+    assert off < 0.005, (first, truth.params)
+
+
+@pytest.mark.slow
 def test_a_clean_push_does_not_jam(odb, tmp_path):
     from bridge.prove.generate import generate_case
 

@@ -9,15 +9,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.optimize import brentq, least_squares
 
 from ...odb.geometry import half_extents
 from ...params.kinds import OBSTACLE_RADIUS
 from ...params.surfaces import surfaces_under
+from ...recording.mitpush import signed_distance
 from ...sim.extras import WeldedShape
 from .base import Effect, Evidence, Recovery, Truth, pname
 
 SIZES = (0.02, 0.03, 0.045)  # m: the proof's boxes (small, medium, large)
 LATERAL = 0.015  # m: seeds beside the jam's spot, across the push (a post's radius)
+TOUCH = 0.004  # m: how far off every jammed pose the one post may lie (the poses' noise and the outline's
+#               modelling error, a few millimetres; beyond, the jams met different sides or different posts)
 
 
 class HiddenObstacle(Effect):
@@ -43,29 +47,32 @@ class HiddenObstacle(Effect):
         return min(1.0, 0.3 + 0.3 * len(late) / max(1, len(evidence.significant())) + 0.4 * stall)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Posts just beyond the real objects' leading faces where the robot's force jammed (the surest sign: a rod
-        held back by the object it pushes; with two jams or more, where those faces' lines meet first), else where
-        their residual began mid-push: the median spot and the first few."""
+        """Posts touching the real objects' leading sides where the robot's force jammed (the surest sign: a rod
+        held back by the object it pushes; with two jams or more, the one point that touches every jammed pose
+        first), else where their residual began mid-push: the median spot and the first few.
+
+        Touching, not beyond the farthest point: a post placed where the simulated object never reaches changes
+        no residual, so a screen or a fit cannot move it (the mismatched proof's post 14 mm beyond a square
+        turned 14 degrees stayed `none`). Each spot lies straight ahead of the object's origin along its push,
+        one post radius off the outline at the observed pose (`_touching`)."""
+        outline = _outline(evidence)
         jams = [f for f in evidence.features if f.get("jam_xy_obs") is not None]
-        spots = [np.asarray(f["jam_xy_obs"]) + np.asarray(f["direction"]) * (f["jam_reach"] + OBSTACLE_RADIUS)
-                 for f in jams]
-        if len(jams) >= 2:  # each jam puts the post just beyond the leading face: where the faces' lines meet
-            A = np.array([f["direction"] for f in jams])
-            b = np.array([float(np.dot(f["direction"], f["jam_xy_obs"])) + f["jam_reach"] + OBSTACLE_RADIUS
-                          for f in jams])
-            if np.linalg.cond(A.T @ A) < 1e3:  # directions apart enough to fix a point
-                spots.insert(0, np.linalg.lstsq(A, b, rcond=None)[0])
+        spots = [_ahead(outline, f["jam_xy_obs"], f.get("jam_yaw_obs"), f["direction"], f["jam_reach"]) for f in jams]
+        if len(jams) >= 2:
+            met = _touching_all(outline, jams, np.median(spots, axis=0))
+            if met is not None:
+                spots.insert(0, met)
         for f in evidence.significant() if not spots else ():
             if f.get("onset_rel") is None or f["onset_rel"] <= 0.05 or f.get("onset_xy_obs") is None:
                 continue
-            d = np.asarray(f["direction"])
-            spots.append(np.asarray(f["onset_xy_obs"]) + d * (f.get("reach", 0.05) + OBSTACLE_RADIUS))
+            spots.append(_ahead(outline, f["onset_xy_obs"], f.get("onset_yaw_obs"), f["direction"],
+                                f.get("reach", 0.05)))
         if not spots:
             return []
         spots = np.array(spots)
-        middle = np.median(spots, axis=0)
+        middle = spots[0] if len(jams) >= 2 and len(spots) > len(jams) else np.median(spots, axis=0)
         candidates = [middle] + list(spots[:3])
-        if jams:  # the post may touch the leading face anywhere along it: beside the median spot too
+        if jams:  # the post may touch the leading side anywhere along it: beside the first spot too
             d = np.mean([f["direction"] for f in jams], axis=0)
             e = np.array([-d[1], d[0]]) / (np.linalg.norm(d) or 1.0)
             candidates[1:1] = [middle + LATERAL * e, middle - LATERAL * e]
@@ -105,3 +112,50 @@ class HiddenObstacle(Effect):
         x, y = pname("obstacle_x", truth.target), pname("obstacle_y", truth.target)
         d = math.hypot(found[x] - truth.params[x], found[y] - truth.params[y])
         return Recovery(d <= 0.025, d, "m", f"post {d * 1e3:.0f} mm from the box centre (25 mm)")
+
+
+def _outline(evidence: Evidence) -> np.ndarray | None:
+    """The focus object's outline (object frame), None when it is no prism or unknown."""
+    from ...rollout.trials import shape_outline
+
+    name = next((f.get("object") for f in evidence.features if f.get("object")), None)
+    if name is None or name not in evidence.world.objects:
+        return None
+    return shape_outline(evidence.world.objects[name].type, evidence.odb)
+
+
+def _gap(outline: np.ndarray, xy, yaw: float, point: np.ndarray) -> float:
+    """The distance of a post centred at `point` from the outline at pose (xy, yaw), less the post's radius."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    v = np.asarray(point, dtype=float) - np.asarray(xy, dtype=float)
+    local = np.array([[c * v[0] + s * v[1], -s * v[0] + c * v[1]]])
+    return float(signed_distance(local, outline)[0]) - OBSTACLE_RADIUS
+
+
+def _ahead(outline: np.ndarray | None, xy, yaw: float | None, direction, reach: float) -> np.ndarray:
+    """The post straight ahead of the object's origin at (xy, yaw) along `direction` that just touches its
+    outline; without an outline (or a pose), the farthest reach along the push plus a radius."""
+    xy, d = np.asarray(xy, dtype=float), np.asarray(direction, dtype=float)
+    far = reach + OBSTACLE_RADIUS
+    if outline is None or yaw is None:
+        return xy + d * far
+    def gap(t: float) -> float:
+        return _gap(outline, xy, yaw, xy + t * d)
+    if gap(0.0) >= 0.0 or gap(far + 0.01) <= 0.0:  # the origin outside its own outline: no ray to follow
+        return xy + d * far
+    return xy + d * brentq(gap, 0.0, far + 0.01, xtol=1e-4)
+
+
+def _touching_all(outline: np.ndarray | None, jams, start: np.ndarray) -> np.ndarray | None:
+    """The post that touches every jammed pose (least squares on the gaps), None without an outline, when no
+    point comes within TOUCH of all of them or it lies behind one of the pushes."""
+    if outline is None or any(f.get("jam_yaw_obs") is None for f in jams):
+        return None
+    found = least_squares(lambda p: [_gap(outline, f["jam_xy_obs"], f["jam_yaw_obs"], p) for f in jams],
+                          np.asarray(start, dtype=float), x_scale=0.01)
+    p = found.x
+    if np.max(np.abs(found.fun)) > TOUCH:
+        return None
+    if any(float(np.dot(p - np.asarray(f["jam_xy_obs"]), f["direction"])) <= 0.0 for f in jams):
+        return None
+    return p
