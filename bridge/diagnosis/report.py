@@ -155,7 +155,7 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
                   f"remove at least {100 * CV_GAIN:.0f} % of what the ordinary model (`{ident.floor}`) leaves on "
                   f"those predictions above the noise floor (a geometric mean over the recordings: each weighs "
                   f"alike).", ""]
-    lines += ["| effect | target | score | k | rms/sigma | cross-validated rms/sigma | of the floor's excess | "
+    lines += ["| effect | target | score | k | rms/sigma | cross-validated rms/sigma | change of the floor's excess | "
               "held-out e | parameters |", "|---|---|---|---|---|---|---|---|---|"]
     for s in ident.ranked:
         held = f"{s.held_out_error.e:.5f}" if s.held_out_error is not None else "-"
