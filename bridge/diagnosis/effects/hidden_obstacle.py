@@ -54,14 +54,13 @@ class HiddenObstacle(Effect):
         Touching, not beyond the farthest point: a post placed where the simulated object never reaches changes
         no residual, so a screen or a fit cannot move it (the mismatched proof's post 14 mm beyond a square
         turned 14 degrees stayed `none`). Each spot lies straight ahead of the object's origin along its push,
-        one post radius off the outline at the observed pose (`_touching`)."""
+        one post radius off the outline at the observed pose (`_ahead`, `_touching_all`)."""
         outline = _outline(evidence)
         jams = [f for f in evidence.features if f.get("jam_xy_obs") is not None]
         spots = [_ahead(outline, f["jam_xy_obs"], f.get("jam_yaw_obs"), f["direction"], f["jam_reach"]) for f in jams]
-        if len(jams) >= 2:
-            met = _touching_all(outline, jams, np.median(spots, axis=0))
-            if met is not None:
-                spots.insert(0, met)
+        met = _touching_all(outline, jams, np.median(spots, axis=0)) if len(jams) >= 2 else None
+        if met is not None:
+            spots.insert(0, met)
         for f in evidence.significant() if not spots else ():
             if f.get("onset_rel") is None or f["onset_rel"] <= 0.05 or f.get("onset_xy_obs") is None:
                 continue
@@ -70,7 +69,7 @@ class HiddenObstacle(Effect):
         if not spots:
             return []
         spots = np.array(spots)
-        middle = spots[0] if len(jams) >= 2 and len(spots) > len(jams) else np.median(spots, axis=0)
+        middle = met if met is not None else np.median(spots, axis=0)
         candidates = [middle] + list(spots[:3])
         if jams:  # the post may touch the leading side anywhere along it: beside the first spot too
             d = np.mean([f["direction"] for f in jams], axis=0)
@@ -139,6 +138,7 @@ def _ahead(outline: np.ndarray | None, xy, yaw: float | None, direction, reach: 
     far = reach + OBSTACLE_RADIUS
     if outline is None or yaw is None:
         return xy + d * far
+
     def gap(t: float) -> float:
         return _gap(outline, xy, yaw, xy + t * d)
     if gap(0.0) >= 0.0 or gap(far + 0.01) <= 0.0:  # the origin outside its own outline: no ray to follow
