@@ -137,17 +137,17 @@ def _checked(ev: Evaluator, result: FitResult, left: list[LeftOut]) -> dict[int,
 
 def predict_left_out(runner: Runner, ev: Evaluator, result: FitResult) -> tuple[FitResult, list[Run]]:
     """Each training recording of `ev` replayed with the model refitted without it (`leave_one_out_points`,
-    long steps `_checked`); returns `result` with its Jacobian differenced at the optimum (reused for the
+    every step `_checked`); returns `result` with its Jacobian differenced at the optimum (reused for the
     uncertainty) and the runs. A model without parameters predicts with itself (its runs)."""
     if result.space.dim == 0:
         return result, list(result.runs)
     result = differenced(ev, result)
     left = leave_one_out_points(result)
     checked = _checked(ev, result, left)
-    short = [k for k in range(len(left)) if k not in checked]
+    still = [k for k in range(len(left)) if k not in checked]  # a step that does not move: the optimum predicts
     runs = runner.run_pairs([(result.space.model(result.space.from_normal(left[k].x)), ev.indices[k])
-                             for k in short])
-    predicted = {**checked, **dict(zip(short, runs))}
+                             for k in still])
+    predicted = {**checked, **dict(zip(still, runs))}
     return result, [predicted[k] for k in range(len(left))]
 
 
