@@ -255,7 +255,7 @@ def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase,
         k = int(np.clip(np.searchsorted(s.times, jam_s), 0, len(s.times) - 1))
         geometry = odb.get(p.world.objects[s.object].type).geometry
         pose = Pose(tuple(s.xyz[k]), rotation_to_quat(s.R[k]))
-        features.update(jam_s=jam_s, jam_xy_obs=tuple(float(v) for v in s.xyz[k, :2]), jam_yaw_obs=_yaw(s.R[k]),
+        features.update(jam_s=jam_s, jam_xy_obs=tuple(float(v) for v in s.xyz[k, :2]), jam_yaw_obs=pose.yaw(),
                         jam_reach=float(support(geometry, pose, np.array([d[0], d[1], 0.0])) - float(s.xyz[k, :2] @ d)))
     return LocatedObject(p.name, s.object, s.times, comps, sigma, measured, (float(d[0]), float(d[1])), quiet_level,
                          onset, contact, contact_s, push, chi2, n,
@@ -367,16 +367,12 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
         sim_move = float(np.linalg.norm(sim_xyz[-1, :2] - sim_xyz[onset_i, :2]))
         f["stall"] = float(obs_move / sim_move) if sim_move > 1e-4 else 1.0
         f["onset_xy_obs"] = tuple(float(v) for v in s.xyz[onset_i, :2])
-        f["onset_yaw_obs"] = _yaw(s.R[onset_i])
         f["onset_xy_sim"] = tuple(float(v) for v in sim_xyz[onset_i, :2])
         geometry = odb.get(p.world.objects[s.object].type).geometry
         pose = Pose(tuple(s.xyz[onset_i]), rotation_to_quat(s.R[onset_i]))
+        f["onset_yaw_obs"] = pose.yaw()
         f["reach"] = float(support(geometry, pose, np.array([d[0], d[1], 0.0])) - float(np.dot(s.xyz[onset_i, :2], d)))
     return f
-
-
-def _yaw(R: np.ndarray) -> float:
-    return float(math.atan2(R[1, 0], R[0, 0]))
 
 
 def _crossing(t: np.ndarray, d: np.ndarray, level: float) -> float | None:
