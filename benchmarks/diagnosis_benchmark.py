@@ -59,6 +59,7 @@ def run_shape(shape: str, files: list[Path], odb, workers: int) -> dict:
     rollouts = data.get("rollouts") or {"simulated": data["simulations"], "cached": 0}
     return {"shape": shape, "recordings": [f.name for f in files], "seconds": round(wall, 1),
             "simulations": data["simulations"], "rollouts": rollouts, "worker_cpu_s": round(cpu, 1),
+            "time_step_s": (data.get("time_step") or {}).get("time_step_s"),
             "verdict": data["verdict"], "e_before": data["error"]["before"]["e"], "e_after": data["error"]["after"]["e"],
             "held_out_e_before": data["error"].get("held_out_before", {}).get("e"),
             "held_out_e_after": data["error"].get("held_out_after", {}).get("e")}

@@ -136,8 +136,11 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
     if r is not None:
         lines += [f"- runner-up: `{r.effect}` on `{r.target}`; margin {ident.margin:.1f} (log evidence, BIC/2)"]
     lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"
-              f"; {ident.simulations} simulations ({data['rollouts']['simulated']} run, {data['rollouts']['cached']} from "
-              f"the rollout cache) in {ident.seconds:.0f} s", ""]
+              f"; {data['simulations']} simulations ({data['rollouts']['simulated']} run, {data['rollouts']['cached']} from "
+              f"the rollout cache) in {ident.seconds:.0f} s"]
+    if data.get("time_step"):
+        lines += [f"- {data['time_step']['note']}"]
+    lines += [""]
     for note in ident.notes:
         lines.append(f"> {note}")
     if ident.notes:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -29,6 +29,8 @@ from .residuals import (ForceSeries, ObservedSeries, force_normalised, force_res
 
 SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
 FAILED_FORCE = 1.0e3  # N per component of a failed replay's force residual
+COARSE_STEP = 0.003  # s: the time step a diagnosis replays at when its error is small against the mismatch
+STEP_SHARE = 0.01  # ... at most this share of the nominal model's chi^2 above the noise (`choose_time_step`)
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,9 +124,10 @@ class Runner:
     """Runs models on prepared trials through an executor; counts simulations and failures."""
 
     def __init__(self, prepared: Sequence[Prepared], odb: ObjectDatabase, executor: Executor, *,
-                 sample_rate: float = SAMPLE_RATE):
+                 sample_rate: float = SAMPLE_RATE, time_step: float | None = None):
         self.prepared = list(prepared)
         self.odb, self.executor, self.sample_rate = odb, executor, sample_rate
+        self.time_step = time_step  # s, every replay's (None: each rollout's own, `SimConfig`'s 2 ms)
         self.simulations = 0  # asked for; `rollouts()` says how many were run and how many the cache answered
         self.failures: list[tuple[str, str]] = []  # (trial, message) of every failed replay
         self.wall = 0.0
@@ -146,7 +149,10 @@ class Runner:
         p = self.prepared[index]
         end = math.floor(p.end * self.sample_rate + 1e-9) / self.sample_rate  # a whole number of samples
         options = SimOptions(sample_rate=self.sample_rate, end=end, contacts=contacts, robot_force=p.force is not None)
-        return Job(trial_rollout(p.trial, model, self.odb), options)
+        rollout = trial_rollout(p.trial, model, self.odb)
+        if self.time_step is not None:
+            rollout = replace(rollout, config=replace(rollout.config, time_step=self.time_step))
+        return Job(rollout, options)
 
     def run_many(self, models: Sequence[Model], indices: Sequence[int], *, tracks: bool = False,
                  contacts: bool = False) -> list[list[Run]]:
@@ -171,6 +177,72 @@ class Runner:
 
     def run(self, model: Model, indices: Sequence[int], *, tracks: bool = False, contacts: bool = False) -> list[Run]:
         return self.run_many([model], indices, tracks=tracks, contacts=contacts)[0]
+
+
+@dataclass(frozen=True)
+class StepChoice:
+    """The time step a diagnosis replays at, and why: the coarse step's nominal replays against the fine step's."""
+
+    time_step: float  # s, chosen
+    fine: float  # s, the recordings' own
+    coarse: float | None = None  # s, tried (None: not tried)
+    share: float | None = None  # chi^2 of the coarse-minus-fine residual over the fine replays' chi^2 above the noise
+    failed: int = 0  # coarse replays that failed
+
+    @property
+    def coarse_chosen(self) -> bool:
+        return self.coarse is not None and self.time_step == self.coarse
+
+    def sentence(self) -> str:
+        if self.coarse is None:
+            return f"replayed at the recordings' time step ({1e3 * self.fine:g} ms)"
+        if self.failed:
+            why = f"{self.failed} replay(s) at {1e3 * self.coarse:g} ms failed"
+        elif self.share is None:
+            why = "the nominal replays sit at the noise floor, where the coarse step's own error would read as physics"
+        else:
+            why = (f"at {1e3 * self.coarse:g} ms the nominal replays differ from those at {1e3 * self.fine:g} ms by "
+                   f"{_percent(self.share)} % of their chi^2 above the noise (at most {100 * STEP_SHARE:g} % allowed)")
+        return f"replayed at {1e3 * self.time_step:g} ms: {why}"
+
+    def to_json(self) -> dict:
+        return {"time_step_s": self.time_step, "fine_s": self.fine, "coarse_s": self.coarse,
+                "share": None if self.share is None else float(f"{self.share:.4g}"), "failed": self.failed,
+                "note": self.sentence()}
+
+
+def _percent(share: float) -> str:
+    return f"{100 * share:.2g}" if share < 0.1 else f"{100 * share:.0f}"
+
+
+def choose_time_step(runner: Runner, indices: Sequence[int], coarse: float = COARSE_STEP) -> StepChoice:
+    """Replay at `coarse` when that changes the nominal replays by little against what the diagnosis explains.
+
+    A diagnosis runs hundreds of replays, and a 3 ms step costs about 0.7 of a 2 ms one (the contact solve is per
+    step; docs/diagnosis.md). The coarser step is a slightly different model: its nominal residual differs from
+    the fine one by d.
+    It is taken when chi^2(d) is at most STEP_SHARE of the fine replays' chi^2 above the noise (|d| at most a
+    tenth of the mismatch's size): a twentieth of the smallest change of chi^2 the verdict counts (MIN_GAIN,
+    CV_GAIN: 20-25 %), and the same d shifts every model alike. Where the recordings sit near the noise (a world
+    the model matches), the step's own error would be read as physics: the fine step stays. Not 4 ms: the steel
+    blocks of the MIT data replay well at 4 ms until the surface is tilted by a few mrad, where they hop off it
+    (a stability limit the nominal replays do not show); 3 ms tracks 2 ms along every effect's parameters. Sets
+    `runner.time_step` to the choice; costs one replay of each recording (the other step's replays are those
+    `locate` reads)."""
+    fine_step = runner.job((), indices[0]).rollout.config.time_step
+    if runner.time_step is not None or fine_step >= coarse:
+        return StepChoice(runner.time_step or fine_step, fine_step)
+    # as `locate` asks for them: the rollout cache answers its nominal replays at whichever step is kept
+    fine = runner.run((), indices, tracks=True, contacts=True)
+    runner.time_step = coarse
+    rough = runner.run((), indices, tracks=True, contacts=True)
+    failed = sum(r.failed is not None for r in rough)
+    excess = sum(r.chi2 - r.normalised.size for r in fine)
+    d = vector_of(rough) - vector_of(fine)
+    share = float(d @ d) / excess if excess > 0 else None
+    if failed or any(r.failed is not None for r in fine) or share is None or share > STEP_SHARE:
+        runner.time_step = None
+    return StepChoice(runner.time_step or fine_step, fine_step, coarse, share, failed)
 
 
 def default_workers() -> int:

@@ -1,0 +1,40 @@
+"""The diagnosis' time step (`runs.choose_time_step`): the coarse step only where its own error is small against
+the mismatch being diagnosed, every replay of the diagnosis at the step chosen. Real Drake replays of generated
+planar pushes."""
+from __future__ import annotations
+
+import pytest
+
+from bridge.diagnosis.runs import COARSE_STEP, STEP_SHARE, Runner, choose_time_step, prepare
+from bridge.prove.generate import generate_case
+from bridge.prove.scenes import Case
+from bridge.rollout import load_trials, make_executor
+
+
+def _runner(odb, folder, effect: str, magnitude: str) -> Runner:
+    paths, _ = generate_case(Case("planar", effect, magnitude, 3), odb, folder, 2, force_noise=None)
+    return Runner([prepare(t, odb, 25.0) for t in load_trials(paths, odb)], odb, make_executor("serial", odb))
+
+
+def test_a_coarse_step_whose_error_is_small_against_the_mismatch_is_taken_for_every_replay(odb, tmp_path):
+    """An off-centre weight moves the block's path far more than the coarser step does: it is taken, and every
+    replay after the choice runs at it."""
+    runner = _runner(odb, tmp_path / "com", "com_offset", "small")
+    choice = choose_time_step(runner, [0, 1])
+    assert choice.coarse_chosen and choice.time_step == COARSE_STEP
+    assert choice.share is not None and choice.share <= STEP_SHARE
+    assert runner.time_step == COARSE_STEP
+    assert runner.job((), 0).rollout.config.time_step == COARSE_STEP
+    assert f"replayed at {1e3 * COARSE_STEP:g} ms" in choice.sentence()
+
+
+def test_the_fine_step_stays_where_the_coarse_one_would_be_read_as_physics(odb, tmp_path):
+    """A world the model matches (residual at the noise floor), and a block whose coarse replay differs from its
+    2 ms one by a large share of what the doubled friction it is diagnosed for leaves: both keep the recordings'
+    2 ms."""
+    for effect, magnitude in (("none", "medium"), ("friction", "medium")):
+        runner = _runner(odb, tmp_path / effect, effect, magnitude)
+        choice = choose_time_step(runner, [0, 1])
+        assert not choice.coarse_chosen, (effect, choice)
+        assert runner.time_step is None and runner.job((), 0).rollout.config.time_step == pytest.approx(0.002)
+        assert choice.share is None if effect == "none" else choice.share > STEP_SHARE
