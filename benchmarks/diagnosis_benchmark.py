@@ -3,6 +3,7 @@ few shapes (Yu, Bauza, Fazeli, Rodriguez, IROS 2016), 2 held out, on a process p
 5 minutes per shape on 2 cores, ellipses included.
 
     python benchmarks/diagnosis_benchmark.py [--shapes rect1,ellip1,hex] [--workers 2] [--label now]
+                                             [--time-step auto|SECONDS]
 
 The 8 recordings of a shape are its files in the dataset's train/ folder sorted by name, 8 of them evenly spread
 (all when there are fewer). Each run is stored under its `--label` in benchmarks/results/diagnosis.json (other
@@ -49,10 +50,10 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def run_shape(shape: str, files: list[Path], odb, workers: int) -> dict:
+def run_shape(shape: str, files: list[Path], odb, workers: int, time_step: float | str = "auto") -> dict:
     with tempfile.TemporaryDirectory() as out:
         cpu0, started = children_cpu(), time.perf_counter()
-        run = diagnose_paths([str(f) for f in files], odb, out, workers=workers, quiet=True)
+        run = diagnose_paths([str(f) for f in files], odb, out, workers=workers, quiet=True, time_step=time_step)
         wall = time.perf_counter() - started
         cpu = children_cpu() - cpu0  # the pool's workers, counted once they have exited
     data = run.data
@@ -60,6 +61,7 @@ def run_shape(shape: str, files: list[Path], odb, workers: int) -> dict:
     return {"shape": shape, "recordings": [f.name for f in files], "seconds": round(wall, 1),
             "simulations": data["simulations"], "rollouts": rollouts, "worker_cpu_s": round(cpu, 1),
             "time_step_s": (data.get("time_step") or {}).get("time_step_s"),
+            "time_step_share": (data.get("time_step") or {}).get("share"),
             "verdict": data["verdict"], "e_before": data["error"]["before"]["e"], "e_after": data["error"]["after"]["e"],
             "held_out_e_before": data["error"].get("held_out_before", {}).get("e"),
             "held_out_e_after": data["error"].get("held_out_after", {}).get("e")}
@@ -90,6 +92,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--label", default="now")
     parser.add_argument("--json", default=str(RESULT))
+    parser.add_argument("--time-step", default="auto", help="of every replay, s, or auto (bridge diagnose's default)")
     args = parser.parse_args()
     root = find_mit_push_root()
     if root is None:
@@ -105,7 +108,8 @@ def main() -> None:
         if not files:
             print(f"{shape}: no recordings in {root / 'train'}; skipped", flush=True)
             continue
-        r = run_shape(shape, files, odb, args.workers)
+        r = run_shape(shape, files, odb, args.workers,
+                      args.time_step if args.time_step == "auto" else float(args.time_step))
         entry["shapes"][shape] = r
         print(f"{args.label} {shape}: {r['seconds']:.0f} s, {r['simulations']} simulations "
               f"({r['rollouts']['simulated']} run, {r['rollouts']['cached']} cached), worker CPU {r['worker_cpu_s']:.0f} s, "
