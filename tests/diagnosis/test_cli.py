@@ -23,7 +23,10 @@ def test_diagnose_writes_a_valid_report(odb, tmp_path, capsys):
     validate(data)
     assert data["verdict"] == "none" and data["recordings"]["held_out"] and "held_out_before" in data["error"]
     assert data["rollouts"]["simulated"] + data["rollouts"]["cached"] == data["simulations"]
-    assert (out / "report.md").read_text().startswith("# Diagnosis")
+    report = (out / "report.md").read_text()
+    assert report.startswith("# Diagnosis")
+    # a clean world sits at the noise floor: the coarse step would be read as physics, the recordings' 2 ms stays
+    assert data["time_step"]["time_step_s"] == 0.002 and data["time_step"]["note"] in report
     assert (out / "paths.png").is_file() and (out / "effects.png").is_file()
     assert not (out / "scene.yaml").exists() and not (out / "residual_old_run_box.png").exists()  # one report
     assert not list(out.glob(".*"))  # no lock file, no temporary file
