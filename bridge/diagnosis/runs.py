@@ -188,12 +188,15 @@ class StepChoice:
     coarse: float | None = None  # s, tried (None: not tried)
     share: float | None = None  # chi^2 of the coarse-minus-fine residual over the fine replays' chi^2 above the noise
     failed: int = 0  # coarse replays that failed
+    asked: bool = False  # the caller set the step (`Runner.time_step`): nothing was tried
 
     @property
     def coarse_chosen(self) -> bool:
         return self.coarse is not None and self.time_step == self.coarse
 
     def sentence(self) -> str:
+        if self.asked:
+            return f"replayed at {1e3 * self.time_step:g} ms, as asked"
         if self.coarse is None:
             return f"replayed at the recordings' time step ({1e3 * self.fine:g} ms)"
         if self.failed:
@@ -208,7 +211,7 @@ class StepChoice:
     def to_json(self) -> dict:
         return {"time_step_s": self.time_step, "fine_s": self.fine, "coarse_s": self.coarse,
                 "share": None if self.share is None else float(f"{self.share:.4g}"), "failed": self.failed,
-                "note": self.sentence()}
+                "asked": self.asked, "note": self.sentence()}
 
 
 def _percent(share: float) -> str:
@@ -230,8 +233,10 @@ def choose_time_step(runner: Runner, indices: Sequence[int], coarse: float = COA
     `runner.time_step` to the choice; costs one replay of each recording (the other step's replays are those
     `locate` reads)."""
     fine_step = runner.job((), indices[0]).rollout.config.time_step
-    if runner.time_step is not None or fine_step >= coarse:
-        return StepChoice(runner.time_step or fine_step, fine_step)
+    if runner.time_step is not None:
+        return StepChoice(runner.time_step, fine_step, asked=True)
+    if fine_step >= coarse:
+        return StepChoice(fine_step, fine_step)
     # as `locate` asks for them: the rollout cache answers its nominal replays at whichever step is kept
     fine = runner.run((), indices, tracks=True, contacts=True)
     runner.time_step = coarse

@@ -38,3 +38,11 @@ def test_the_fine_step_stays_where_the_coarse_one_would_be_read_as_physics(odb, 
         assert not choice.coarse_chosen, (effect, choice)
         assert runner.time_step is None and runner.job((), 0).rollout.config.time_step == pytest.approx(0.002)
         assert choice.share is None if effect == "none" else choice.share > STEP_SHARE
+
+
+def test_a_step_the_caller_sets_is_kept_without_a_replay(odb, tmp_path):
+    runner = _runner(odb, tmp_path / "com", "com_offset", "small")
+    runner.time_step = 0.0025
+    choice = choose_time_step(runner, [0, 1])
+    assert choice.asked and choice.time_step == 0.0025 and runner.simulations == 0
+    assert runner.job((), 1).rollout.config.time_step == 0.0025 and "as asked" in choice.sentence()
