@@ -223,15 +223,14 @@ def choose_time_step(runner: Runner, indices: Sequence[int], coarse: float = COA
 
     A diagnosis runs hundreds of replays, and a 3 ms step costs about 0.7 of a 2 ms one (the contact solve is per
     step; docs/diagnosis.md). The coarser step is a slightly different model: its nominal residual differs from
-    the fine one by d.
-    It is taken when chi^2(d) is at most STEP_SHARE of the fine replays' chi^2 above the noise (|d| at most a
-    tenth of the mismatch's size): a twentieth of the smallest change of chi^2 the verdict counts (MIN_GAIN,
-    CV_GAIN: 20-25 %), and the same d shifts every model alike. Where the recordings sit near the noise (a world
-    the model matches), the step's own error would be read as physics: the fine step stays. Not 4 ms: the steel
-    blocks of the MIT data replay well at 4 ms until the surface is tilted by a few mrad, where they hop off it
-    (a stability limit the nominal replays do not show); 3 ms tracks 2 ms along every effect's parameters. Sets
-    `runner.time_step` to the choice; costs one replay of each recording (the other step's replays are those
-    `locate` reads)."""
+    the fine one by d. It is taken when chi^2(d) is at most STEP_SHARE of the fine replays' chi^2 above the noise
+    (|d| at most a tenth of the mismatch's size): a twentieth of the smallest change of chi^2 the verdict counts
+    (MIN_GAIN, CV_GAIN: 20-25 %), and the same d shifts every model alike. Where the recordings sit near the
+    noise (a world the model matches), the step's own error would be read as physics: the fine step stays. Not
+    4 ms: the steel blocks of the MIT data replay well at 4 ms until the surface is tilted by a few mrad, where
+    they hop off it (a stability limit the nominal replays do not show); 3 ms tracks 2 ms along the parameter
+    lines tried (tilt, mass, centre of mass). Sets `runner.time_step` to the choice; costs one replay of each
+    recording (the other step's replays are those `locate` reads). A step the caller set is kept as asked."""
     fine_step = runner.job((), indices[0]).rollout.config.time_step
     if runner.time_step is not None:
         return StepChoice(runner.time_step, fine_step, asked=True)
