@@ -63,6 +63,9 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     limit = TimeLimit(time_limit)
     if not trials:
         raise DiagnosisError("no recordings to diagnose")
+    if time_step != "auto" and not (isinstance(time_step, (int, float)) and math.isfinite(time_step) and time_step > 0):
+        raise DiagnosisError(f"time_step must be 'auto' or a finite number of seconds > 0, got {time_step!r}",
+                             field="time_step")
     prepared = [prepare(t, odb, RESIDUAL_RATE) for t in trials]
     held = held_out_indices(len(prepared), held_out)
     train = [i for i in range(len(prepared)) if i not in held]

@@ -49,6 +49,22 @@ def test_a_time_limit_must_be_a_finite_number_of_seconds_above_zero(refuse, reco
     assert "finite number of seconds > 0" in line
 
 
+@pytest.mark.parametrize("value", ["0", "-0.003", "nan", "inf", "fast"])
+def test_a_time_step_must_be_auto_or_a_finite_number_above_zero(refuse, recording, tmp_path, value):
+    out = tmp_path / "out"
+    line = refuse(["diagnose", recording, "--out", out, "--time-step", value], "--time-step", repr(value),
+                  inputs=(recording,), absent=(out,), code=2)
+    assert "finite number > 0" in line
+
+
+def test_run_diagnosis_refuses_a_time_step_that_is_not_one(odb):
+    from bridge.diagnosis.pipeline import run_diagnosis
+    from bridge.errors import DiagnosisError
+
+    with pytest.raises(DiagnosisError, match="time_step"):
+        run_diagnosis([object()], odb, None, time_step="fast")
+
+
 def test_infer_time_limit_needs_samples(refuse, recording, tmp_path):
     refuse(["infer", recording, "--time-limit", "5", "--world-out", tmp_path / "w.yaml"], "--time-limit", "--samples",
            inputs=(recording,), absent=(tmp_path / "w.yaml", recording / "world_after.yaml"))
