@@ -87,6 +87,8 @@ FORCE_COMPONENTS = ("fx", "fy", "fz")
 MIN_FORCE_SIGMA = 1e-3  # N: numerical floor
 SPARSE_FORCE_SIGMA = 0.5  # N, only when a force track is too short to estimate its noise
 FORCE_MODEL_ERROR = 0.03  # share of the observed force a simulated contact force is trusted to (assumed)
+MOVING_SHARE = 0.02  # a joint moves when its speed (over MOVING_WINDOW) exceeds this share of its peak speed
+MOVING_WINDOW = 0.1  # s over which a joint's speed is measured: encoder noise does not read as motion
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,14 +109,22 @@ class ForceSeries:
         return np.sqrt(self.sigma[None, :] ** 2 + (FORCE_MODEL_ERROR * size) ** 2)
 
 
-def force_series(observed, rate: float) -> ForceSeries:
+def force_series(observed, rate: float, span: tuple[float, float] | None = None) -> ForceSeries:
     """`observed` (a `bridge.recording.forces.ObservedForce`) on a grid of `rate` Hz, each value the mean over
     the 1/rate s window around it (`window_mean`, the same operation the simulated force gets, so impacts and
     steps compare like with like); the noise from second differences of the full-rate track (not reduced for
-    the averaging: a conservative floor)."""
+    the averaging: a conservative floor). With `span` (s, `motion_span`), only the grid times within it: while
+    the robot stands still, before its motion and after it, the force it feels is what its servo's and the
+    contact's compliance hold against static friction (a pre-load, the push's last force held after the stop),
+    which depends on a servo stiffness no model here knows; while it moves, the force is what sliding
+    friction and inertia ask for. (Measured: the real MIT pushes hold 0.1-5.6 N after the rod stops, Drake's
+    replays 0-2.5 N, an independent MuJoCo world whose contacts creep 0.1 N; kept, that held force pulled
+    a friction fit to 0.23 where the sliding force said 0.55.)"""
     times = np.asarray(observed.times, dtype=float)
     force = np.asarray(observed.force, dtype=float)
     grid = np.arange(times[0], times[-1] + 1e-9, 1.0 / rate)
+    if span is not None:
+        grid = grid[(grid >= span[0] - 1e-9) & (grid <= span[1] + 1e-9)]
     if len(times) >= 8:
         d2 = force[2:] - 2 * force[1:-1] + force[:-2]
         mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
@@ -123,6 +133,21 @@ def force_series(observed, rate: float) -> ForceSeries:
         sigma = np.full(3, SPARSE_FORCE_SIGMA)
     return ForceSeries(grid, window_mean(times, force, grid), np.maximum(sigma, MIN_FORCE_SIGMA),
                        np.asarray(observed.measured, dtype=bool))
+
+
+def motion_span(times: np.ndarray, positions: np.ndarray) -> tuple[float, float] | None:
+    """(first, last) time a joint of the telemetry moves: its displacement over MOVING_WINDOW faster than
+    MOVING_SHARE of its own peak speed; None when nothing moves."""
+    times = np.asarray(times, dtype=float)
+    if len(times) < 2:
+        return None
+    half = MOVING_WINDOW / 2
+    columns = np.asarray(positions, dtype=float).reshape(len(times), -1).T
+    speed = np.abs(np.stack([np.interp(times + half, times, q) - np.interp(times - half, times, q)
+                             for q in columns], axis=1)) / MOVING_WINDOW
+    peak = speed.max(axis=0)
+    moving = np.nonzero(np.any((speed > MOVING_SHARE * peak) & (peak > 0), axis=1))[0]
+    return (float(times[moving[0]]), float(times[moving[-1]])) if len(moving) else None
 
 
 def window_mean(times: np.ndarray, values: np.ndarray, grid: np.ndarray, points: int = 9) -> np.ndarray:

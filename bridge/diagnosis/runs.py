@@ -24,8 +24,8 @@ from ..rollout.rollout import Job, Outcome
 from ..rollout.trials import Trial
 from ..sim.simulate import SimOptions
 from ..values import Contact
-from .residuals import (ForceSeries, ObservedSeries, force_normalised, force_residual, force_series, normalised,
-                        observed_series)
+from .residuals import (ForceSeries, ObservedSeries, force_normalised, force_residual, force_series, motion_span,
+                        normalised, observed_series)
 
 SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
 FAILED_FORCE = 1.0e3  # N per component of a failed replay's force residual
@@ -66,7 +66,10 @@ def prepare(trial: Trial, odb: ObjectDatabase, rate: float = 25.0) -> Prepared:
         series.append(observed_series(track, rate))
     if not series:
         raise DiagnosisError("no observed free object to compare with", source=str(trial.source))
-    force = force_series(trial.force, rate) if trial.force is not None and trial.world.robot is not None else None
+    force = None
+    if trial.force is not None and trial.world.robot is not None:
+        span = motion_span(trial.telemetry.times, trial.telemetry.positions)
+        force = force_series(trial.force, rate, span) if span is not None else None
     last_obs = max(float(s.times[-1]) for s in series)
     end = max(last_obs, float(trial.telemetry.times[-1])) + 0.02
     return Prepared(trial, tuple(series), end, force)

@@ -59,3 +59,22 @@ def test_force_noise_is_estimated_and_identical_forces_leave_no_residual():
     # the tolerance grows with the force: 3 % of 2 N on top of the noise
     pushing = series.force[:, 0] > 1.9
     assert np.all(series.tolerance[pushing, 0] > np.hypot(series.sigma[0], FORCE_MODEL_ERROR * 1.9))
+
+
+def test_the_force_is_compared_only_while_the_robot_moves():
+    """Before its motion and after it the robot's force is a hold (a pre-load, the last push force kept by its
+    servo against static friction), which depends on a servo stiffness no model knows: it is left out."""
+    from bridge.diagnosis.residuals import force_series, motion_span
+    from bridge.recording.forces import ObservedForce
+
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 3.0, 0.004)  # an encoder at 250 Hz: still, a push from 0.5 s to 2 s at 5 cm/s, still
+    x = 0.05 * np.clip(t - 0.5, 0.0, 1.5) + rng.normal(0.0, 2e-6, len(t))  # micrometre encoder noise
+    start, end = motion_span(t, np.column_stack([x, np.full(len(t), 0.1)]))
+    assert start == pytest.approx(0.5, abs=0.06) and end == pytest.approx(2.0, abs=0.06)
+    assert motion_span(t, np.column_stack([np.full(len(t), 0.2)])) is None  # nothing moves
+    held = ObservedForce(t, np.column_stack([np.where(t > 0.5, 3.0, 0.5), np.zeros(len(t)), np.zeros(len(t))]))
+    series = force_series(held, 25.0, (start, end))
+    assert series.times[0] >= start - 1e-9 and series.times[-1] <= end + 1e-9
+    assert len(series.times) == pytest.approx(25 * (end - start), abs=2)
+    assert len(force_series(held, 25.0).times) > len(series.times)  # without a span: every sample
