@@ -17,14 +17,14 @@ verdict; the fits and cross-validation decide.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from ..recording.adjustments import StartClearance
-from ..recording.mitpush import moving_samples, signed_distance
+from ..recording.mitpush import moving_samples, signed_distance, touching
 from .effects.object_frame import SEED_TURN
 from .loader import NOISE_SIGMAS
 
@@ -51,6 +51,18 @@ class FrameFit:
     recordings: int
     at_bound: bool = False  # a bound of the fit stopped it: the samples do not pin the frame (one face pushed)
     object: str = ""
+    # the pushing samples (rod relative to the recorded object (n, 2), recorded yaw (n,)) and the outline, to
+    # measure how far any frame puts the rod off the outline (`rms_at`)
+    samples: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(default=None, repr=False)
+
+    def rms_at(self, x: float, y: float, yaw: float) -> float:
+        """The gap's RMS (m; each sample's gap to the median gap, clipped at 1 cm as `rms_before`) with the recorded
+        frame at (x, y, yaw): how far off the outline that frame puts the rod while it pushed."""
+        if self.samples is None:
+            return math.nan
+        rel, heading, outline = self.samples
+        gaps = _gaps(rel, heading, outline, np.array([x, y, yaw, 0.0]))
+        return float(np.sqrt(np.mean(np.minimum(np.abs(gaps - np.median(gaps)), 0.01) ** 2)))
 
     def sigmas(self) -> float:
         """How far the frame lies from the null, in standard deviations (each component's, the largest)."""
@@ -105,6 +117,11 @@ def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray
         if isinstance(a, StartClearance) and a.object == obj:
             tip = tip - np.asarray(a.shift)  # the raw recording's rod
     moving = moving_samples(times, xy, yaw)  # the loader's rule for the samples that pin the rod on the outline
+    if trial.force is not None and len(moving):  # and the rod touching, where the force says so (`touching`)
+        f = trial.force
+        magnitude = np.hypot(*(np.interp(times[moving], f.times, f.force[:, k]) for k in (0, 1)))
+        touch = moving[touching(magnitude)]
+        moving = touch if len(touch) >= 5 else moving
     if len(moving) < 5:
         return None
     return tip[moving], xy[moving], yaw[moving]
@@ -123,10 +140,7 @@ def fit_frame(samples: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], outl
     outline = np.asarray(outline, dtype=float)
 
     def gaps(p: np.ndarray) -> np.ndarray:
-        heading = yaw - p[2]
-        c, s = np.cos(heading), np.sin(heading)
-        local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]]) + p[:2]
-        return signed_distance(local, outline) - p[3]
+        return _gaps(rel, yaw, outline, p)
 
     s0 = float(np.median(gaps(np.zeros(4))))
     before = gaps(np.array([0.0, 0.0, 0.0, s0]))
@@ -146,7 +160,17 @@ def fit_frame(samples: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], outl
     bounded = bool(max(abs(best.x[0]), abs(best.x[1])) > 0.99 * half or abs(best.x[2]) > 0.99 * YAW_BOUND)
     return FrameFit(float(best.x[0]), float(best.x[1]), float(best.x[2]), float(best.x[3]), std,
                     float(np.sqrt(np.mean(np.minimum(np.abs(before), 0.01) ** 2))),
-                    float(np.sqrt(np.mean(np.minimum(np.abs(after), 0.01) ** 2))), len(tip), len(samples), bounded)
+                    float(np.sqrt(np.mean(np.minimum(np.abs(after), 0.01) ** 2))), len(tip), len(samples), bounded,
+                    samples=(rel, yaw, outline))
+
+
+def _gaps(rel: np.ndarray, yaw: np.ndarray, outline: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Each sample's rod-to-outline distance less the common gap p[3], with the recorded frame at (p[0], p[1]) turned
+    p[2] in the body (module docstring)."""
+    heading = yaw - p[2]
+    c, s = np.cos(heading), np.sin(heading)
+    local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]]) + p[:2]
+    return signed_distance(local, outline) - p[3]
 
 
 def frame_evidence(prepared, odb, obj: str) -> FrameFit | None:

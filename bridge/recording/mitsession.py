@@ -19,7 +19,7 @@ from ..odb.geometry import z_range
 from ..values import Pose
 from ..world import ObjectState, RobotState, WorldState
 from .adjustments import StartClearance
-from .mitpush import PUSHER_RADIUS, PushRecording, load_outline, pushed_samples, signed_distance
+from .mitpush import PUSHER_RADIUS, PushRecording, load_outline, pushed_samples, signed_distance, touching
 from .forces import ObservedForce
 from .observations import ObservedPoses, ObservedTrack
 from .telemetry import Telemetry
@@ -121,8 +121,13 @@ def _contact_gap(push: PushRecording, outline: np.ndarray, frame_yaw: float
     """The rod-to-outline gap (m) while the rod pushes the object, where the true gap is zero: its median, its
     scatter (1.4826 MAD about the median: what the outline's mismatch and the motion capture leave) and the
     outline's mean outward normal there (world frame, unit). A constant calibration offset D moves the median by
-    -D.n, not the scatter. (None, None, None) with fewer than 10 pushed samples."""
+    -D.n, not the scatter. Where the push's force is trusted (`_force`), only the samples where the rod touches
+    (`touching`: an object kicked ahead of the rod moves without it). (None, None, None) with fewer than 10 pushed
+    samples."""
     pushed = pushed_samples(push)
+    if _force(push)[0] is not None and len(pushed):
+        touch = pushed[touching(np.hypot(push.wrench[pushed, 0], push.wrench[pushed, 1]))]
+        pushed = touch if len(touch) >= 10 else pushed
     if len(pushed) < 10:
         return None, None, None
     heading = push.object_pose[pushed, 2] + frame_yaw
