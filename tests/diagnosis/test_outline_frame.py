@@ -56,9 +56,10 @@ def test_no_frame_is_claimed_where_there_is_none_or_the_pushes_cannot_pin_it():
 
 
 def test_a_fitted_frame_the_pushes_do_not_show_is_contradicted_where_they_pin_it():
-    """A fit that moves the frame 4 mm where the pushing samples put it at the centre soaks up something else
-    (a mismatched world's leftovers); within the samples' uncertainty (floored at 1 mm, 1 deg) it stands, and
-    samples that cannot pin the frame (one face pushed: stopped by a bound) contradict nothing."""
+    """A fit that moves the frame where the pushing samples put it at the centre soaks up something else (a
+    mismatched world's leftovers): it takes the rod off the outline while it pushed. A frame that is there brings
+    the rod onto the outline and stands; samples on one face cannot pin the offset along it and contradict
+    nothing there."""
     from dataclasses import replace
 
     from bridge.diagnosis.identify import Scored, _frame_check
@@ -71,7 +72,13 @@ def test_a_fitted_frame_the_pushes_do_not_show_is_contradicted_where_they_pin_it
                       3, 0.0, 1)
 
     why = _frame_check(scored(0.004, 0.0, 0.0), seen)
-    assert why is not None and "+4.0" in why and "soaks up" in why
-    assert _frame_check(scored(0.0015, -0.001, math.radians(1.5)), seen) is None
-    assert _frame_check(scored(0.004, 0.0, 0.0), replace(seen, at_bound=True)) is None
+    assert why is not None and "+4.0" in why and "off the outline" in why and "soaks up" in why
+    assert _frame_check(scored(0.0015, -0.001, math.radians(1.5)), seen) is not None  # 30 times the samples' scatter
+    assert _frame_check(scored(0.0001, 0.0, 0.0), seen) is None
     assert _frame_check(scored(0.004, 0.0, 0.0), None) is None
+    there = fit_frame(_pushes((0.004, -0.003, math.radians(4.0)), SIDES, rng), SQUARE)
+    assert _frame_check(scored(0.004, -0.003, math.radians(4.0)), there) is None
+    # one face pushed (its outward normal -x), the object not turning: an offset along the face (y) changes no gap,
+    # and the samples' own fit wanders along it (here stopped by no bound; where a bound stops it, only the gaps judge)
+    one_face = replace(fit_frame(_pushes((0.0, 0.0, 0.0), [(-1.0, 0.0)] * 3, rng, turn=0.0), SQUARE), at_bound=True)
+    assert _frame_check(scored(0.0, 0.004, 0.0), one_face) is None

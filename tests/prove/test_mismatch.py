@@ -149,3 +149,43 @@ def test_a_mismatched_tabletop_world_records_where_its_slow_servo_put_the_rod(od
     assert lag.max() > 0.001, lag.max()  # the servo fell behind its command while it moved ...
     columns = [result.joint_names.index(j) for j in command.joint_names]
     assert np.allclose(recorded.sample(result.times), result.joint_track[:, columns])  # ... and that is recorded
+
+
+@pytest.mark.slow
+def test_a_rod_offset_the_contact_gaps_measure_is_held_at_the_measurement_while_friction_is_fitted(odb, tmp_path):
+    """The gaps while pushing measure a calibration offset before any simulation; a fit through the simulation of a
+    world that differs from the model beneath it moved the offset millimetres to soak up the difference (a MuJoCo
+    world: (+0.8, -4.0) mm measured and true, (+3.8, -8.3) mm fitted). `pusher_offset` is the measured offset, with
+    its measured uncertainty, and the friction coefficients fitted to it."""
+    from bridge.diagnosis.effects import get_effect
+    from bridge.diagnosis.identify import _checked_against, _friction_parameters, _from_fit, _measured, _space
+    from bridge.diagnosis.loader import read_adjustments
+    from bridge.diagnosis.runs import Runner, prepare
+    from bridge.diagnosis.search import Evaluator, fit
+    from bridge.prove.generate import generate_case
+    from bridge.rollout import make_executor
+    from bridge.rollout.trials import load_trials
+
+    paths, truth = generate_case(Case(SHAPE, "pusher_offset", "large", 3, "mismatched"), odb, tmp_path, 6)
+    trials = load_trials(paths, odb, observation_rate=250.0)
+    prepared = [prepare(t, odb, 25.0) for t in trials]
+    loader = read_adjustments(prepared)
+    measured = _measured(loader)
+    gaps = loader.contact_fit()
+    assert set(measured) == {"joint_offset[pusher_x]", "joint_offset[pusher_y]"}, measured
+    assert [measured[f"joint_offset[{j}]"][0] for j in gaps.joints] == pytest.approx(list(gaps.offset))
+    world = trials[0].world
+    friction = _friction_parameters(world, odb, "steel_block")
+    space = _space(friction, get_effect("pusher_offset"), "pusher", world, odb, measured)
+    assert space.dim == len(friction)  # only the coefficients are free
+    with make_executor("serial", odb) as executor:
+        ev = Evaluator(Runner(prepared, odb, executor), range(len(prepared)))
+        result = fit(ev, space, np.zeros(space.dim), max_iterations=2)
+    scored = _checked_against(_from_fit("pusher_offset", "pusher", result, world, odb), loader)
+    assert scored.contradicted is None
+    assert scored.params == pytest.approx({k: v for k, (v, _) in measured.items()})
+    assert scored.std == pytest.approx({k: s for k, (_, s) in measured.items()})
+    assert scored.k == space.dim + 2  # the measured offset counts as parameters the recordings determined
+    true = np.array([truth.params["joint_offset[pusher_x]"], truth.params["joint_offset[pusher_y]"]])
+    assert np.linalg.norm(np.array([scored.params["joint_offset[pusher_x]"],
+                                    scored.params["joint_offset[pusher_y]"]]) - true) < 1e-3
