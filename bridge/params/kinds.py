@@ -820,7 +820,14 @@ class SupportScale(_SupportMember):
                              "disc's rim, 1.73 a square's corners")
 
     def bounds(self, world, odb, target):
-        return 0.3, 1.6
+        """Up to the largest spread the object's own bottom allows: all its weight at the points farthest from the
+        centroid (a disc's rim: 1.41, a square's corners: 1.73; `sim.support.widest_scale`). A fit that asks for
+        more wants the weight off the object: the model family is wrong (a soaking fit pressed 1.40 on a disc)."""
+        from ..sim.support import widest_scale
+
+        if target not in world.objects:
+            return 0.3, 1.6
+        return 0.3, min(self.physical.high, widest_scale(odb.get(world.objects[target].type)))
 
     def step(self, world, odb, target):
         return 0.1

@@ -108,6 +108,20 @@ def support_shape(obj_type: ObjectType, support: SupportPressure, vertices: int)
     return prism_mesh(moved, z0, z1, f"{obj_type.name}_support")
 
 
+def widest_scale(obj_type: ObjectType, vertices: int = 16) -> float:
+    """The largest `SupportPressure.scale` the object's bottom can carry its weight at: the radius of gyration of
+    all the weight at the bottom's points farthest from its centroid over that of a uniform footprint (a disc's
+    rim: sqrt 2, a square's corners: sqrt 3). A larger footprint twists as no distribution on the object can."""
+    from .prisms import centroid
+
+    try:
+        poly, _, _ = bottom_polygon(obj_type, vertices)
+    except SceneError:
+        return MAX_SCALE
+    farthest = float(np.max(np.linalg.norm(np.asarray(poly) - centroid(poly), axis=1)))
+    return farthest / gyration_radius(poly)
+
+
 def gyration_radius(poly: np.ndarray) -> float:
     """The radius of gyration (m) of a uniform polygon about its area centroid, sqrt(polar moment / area): a
     footprint's size as twisting sees it (footprints of one radius of gyration have nearly one limit surface)."""

@@ -92,3 +92,14 @@ def test_the_signature_tells_a_common_turn_factor_from_an_off_centre_mass(push, 
     assert effect.signature(common, "block") > 0.5 > 0.2 > effect.signature(mixed, "block")
     seeds = effect.seeds(common, "block")
     assert seeds[1]["support_scale[block]"] == pytest.approx(1.55 ** -0.5, abs=0.05)
+
+
+def test_no_footprint_twists_wider_than_the_objects_own_farthest_points(push, odb):
+    """The largest spread of weight a bottom allows: all of it at its points farthest from the centroid, sqrt 2
+    radii of gyration out on a disc, sqrt 3 on a square. `support_scale` searches no further: a fit that asks for
+    more wants the weight off the object, so its model family is wrong (at a bound, never a finding)."""
+    from bridge.sim.support import widest_scale
+
+    assert widest_scale(odb.get("steel_block")) == pytest.approx(math.sqrt(3), rel=1e-6)
+    lo, hi = kind_named("support_scale").bounds(push.world, odb, "block")
+    assert (lo, hi) == (0.3, pytest.approx(math.sqrt(3)))
