@@ -362,10 +362,6 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
     tail = world_res[onset_i:] if onset_i is not None else world_res
     mean_dir = tail.mean(axis=0)
     f["world_dir"] = tuple(mean_dir / (np.linalg.norm(mean_dir) or 1.0))
-    if push is not None:  # where the real object went: half way through the push and at the end
-        mid = int(np.clip(np.searchsorted(t, 0.5 * (push[0] + push[1])), 0, len(t) - 1))
-        f["mid_xy_obs"] = tuple(float(v) for v in s.xyz[mid, :2])
-    f["final_xy_obs"] = tuple(float(v) for v in s.xyz[-1, :2])
     if onset_i is not None:
         obs_move = float(np.linalg.norm(s.xyz[-1, :2] - s.xyz[onset_i, :2]))
         sim_move = float(np.linalg.norm(sim_xyz[-1, :2] - sim_xyz[onset_i, :2]))

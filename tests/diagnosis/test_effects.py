@@ -127,25 +127,3 @@ def test_negligible_parameters_are_the_effects_own(planar_world, odb):
     assert get_effect("mass").negligible(planar_world, odb, "block", {pname("mass", "block"): 1.03 * m,
                                                                         pname("mass_spread", "block"): 0.0})
     assert not get_effect("hidden_obstacle").negligible(planar_world, odb, "surface", {})
-
-
-def test_a_patch_is_seeded_where_the_objects_went_when_no_residual_begins_mid_push(planar_world, odb):
-    """A world that differs from the model everywhere leaves a residual from the first contact on in every
-    recording, which hides where a patch begins: the patch is then seeded where the real objects went (half way
-    through their pushes and at their ends), not left untried (an independent MuJoCo world's half-plane and strip
-    patches were never screened: `friction`, `pressure_distribution`)."""
-    from bridge.diagnosis.effects import Evidence
-
-    effect = get_effect("friction_patch")
-    early = tuple({"significant": True, "onset_rel": 0.02, "direction": (1.0, 0.0), "onset_xy_sim": (0.0, 0.0),
-                   "mid_xy_obs": (0.02 + 0.001 * k, 0.01), "final_xy_obs": (0.05 + 0.001 * k, 0.02)}
-                  for k in range(5))
-    seeds = effect.seeds(Evidence(early, planar_world, odb), "surface")
-    centres = {(round(s[pname("patch_cx", "surface")], 4), round(s[pname("patch_cy", "surface")], 4)) for s in seeds}
-    assert centres == {(0.022, 0.01), (0.052, 0.02)}
-    assert {s[pname("patch_half", "surface")] for s in seeds} == {0.06, 0.15}
-    late = tuple({**f, "onset_rel": 0.5} for f in early)  # a residual that begins mid-push: ahead of its onsets
-    ahead = effect.seeds(Evidence(late, planar_world, odb), "surface")
-    # each square begins where the objects' leading edges were at the onset (origin + 5 cm reach along +x)
-    assert {(round(s[pname("patch_cx", "surface")], 4), round(s[pname("patch_cy", "surface")], 4))
-            for s in ahead} == {(0.11, 0.0), (0.2, 0.0)}

@@ -59,38 +59,25 @@ class FrictionPatch(Effect):
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
         """Squares that begin where the objects' leading edges were at the onsets (the median entry point and the
-        first single one), small and large, with a lower and a higher coefficient. Where no residual begins
-        mid-push (a world that differs from the model everywhere leaves one from the first contact on, and hides
-        where a patch begins), squares centred where the real objects went: half way through their pushes and
-        at their ends (the medians). Without them an independent MuJoCo world's half-plane and strip patches
-        were never tried (`friction`, `pressure_distribution`)."""
-        late = [f for f in evidence.significant()
-                if f.get("onset_rel") is not None and f["onset_rel"] > 0.1 and f.get("onset_xy_sim") is not None]
-        if late:
-            entries = [(np.asarray(f["onset_xy_sim"]) + np.asarray(f["direction"]) * f.get("reach", 0.05),
-                        np.asarray(f["direction"])) for f in late]
-            points = [(np.median([e for e, _ in entries], axis=0), np.mean([d for _, d in entries], axis=0))]
-            points += entries[:1]
-            return self._squares(evidence, target, points, ahead=True)
-        went = [key for key in ("mid_xy_obs", "final_xy_obs")
-                if any(f.get(key) is not None for f in evidence.significant())]
-        points = [(np.median([f[key] for f in evidence.significant() if f.get(key) is not None], axis=0),
-                   np.zeros(2)) for key in went]
-        return self._squares(evidence, target, points, ahead=False)
-
-    def _squares(self, evidence: Evidence, target: str, points, ahead: bool) -> list[dict[str, float]]:
-        """Small and large squares at each (point, direction), centred ahead of the point by their half size along
-        the direction (`ahead`) or on it, each with a lower and a higher coefficient."""
+        first single one), small and large, with a lower and a higher coefficient."""
         mu_bounds = next(p.bounds for p in self.parameters(evidence.world, evidence.odb, target)
                          if p.kind.name == "patch_mu")
         pair = self._pair(evidence.world, evidence.odb, target)
-        mu_o = _object_mu(evidence.world, evidence.odb, target)
+        late = [f for f in evidence.significant()
+                if f.get("onset_rel") is not None and f["onset_rel"] > 0.1 and f.get("onset_xy_sim") is not None]
+        if not late:
+            return []
+        entries = [(np.asarray(f["onset_xy_sim"]) + np.asarray(f["direction"]) * f.get("reach", 0.05),
+                    np.asarray(f["direction"])) for f in late]
+        points = [(np.median([e for e, _ in entries], axis=0), np.mean([d for _, d in entries], axis=0))]
+        points += entries[:1]
         out = []
         for point, d in points:
             d = d / (np.linalg.norm(d) or 1.0)
             for half in (0.06, 0.15):
-                c = point + d * half if ahead else point
+                c = point + d * half
                 for factor in (0.55, 1.45):
+                    mu_o = _object_mu(evidence.world, evidence.odb, target)
                     mu = float(np.clip(surface_friction_for(factor * pair, mu_o), *mu_bounds))
                     out.append({pname("patch_cx", target): float(c[0]), pname("patch_cy", target): float(c[1]),
                                 pname("patch_half", target): half, pname("patch_mu", target): mu})
