@@ -127,3 +127,21 @@ def test_negligible_parameters_are_the_effects_own(planar_world, odb):
     assert get_effect("mass").negligible(planar_world, odb, "block", {pname("mass", "block"): 1.03 * m,
                                                                         pname("mass_spread", "block"): 0.0})
     assert not get_effect("hidden_obstacle").negligible(planar_world, odb, "surface", {})
+
+
+def test_a_patch_is_tried_only_where_a_residual_begins_mid_push(planar_world, odb):
+    """A patch is local: its evidence is a residual that begins when an object enters it. Where every residual
+    begins at the first contact (a world that differs from the model everywhere), nothing says where a patch
+    would be, and a square placed where the objects went soaks up the difference: an independent MuJoCo world
+    with no effect was called `friction_patch` that way. Such a world gets no patch to try."""
+    from bridge.diagnosis.effects import Evidence
+
+    effect = get_effect("friction_patch")
+    early = tuple({"significant": True, "onset_rel": 0.02, "direction": (1.0, 0.0), "onset_xy_sim": (0.0, 0.0),
+                   "mid_xy_obs": (0.02, 0.01), "final_xy_obs": (0.05, 0.02)} for _ in range(5))
+    assert effect.seeds(Evidence(early, planar_world, odb), "surface") == []
+    late = tuple({**f, "onset_rel": 0.5} for f in early)
+    ahead = effect.seeds(Evidence(late, planar_world, odb), "surface")
+    # each square begins where the objects' leading edges were at the onset (origin + 5 cm reach along +x)
+    assert {(round(s[pname("patch_cx", "surface")], 4), round(s[pname("patch_cy", "surface")], 4))
+            for s in ahead} == {(0.11, 0.0), (0.2, 0.0)}

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from bridge.diagnosis.effects import Evidence, get_effect
-from bridge.diagnosis.identify import _friction_parameters
+from bridge.diagnosis.effects.object_scale import outline_radius
+from bridge.diagnosis.identify import _friction_parameters, _scale_check
 from bridge.diagnosis.runs import Runner, chi2_of, prepare
 from bridge.diagnosis.search import Evaluator, fit
 from bridge.errors import SceneError
@@ -51,11 +52,13 @@ def test_a_scale_on_a_fixture_is_refused(planar_world, odb):
 def test_a_rod_that_pushed_outside_the_outline_on_every_side_seeds_a_larger_object(planar_world, odb):
     """The contact gaps (read before any simulation) put the rod 2 mm outside the block's outline on every side:
     the size that puts it there is a seed, and the signature says the object model is the suspect."""
-    from bridge.sim.prisms import outline_of, signed_area
-
     effect = get_effect("object_scale")
     plain, seen = Evidence((), planar_world, odb), Evidence((), planar_world, odb, inflation=0.002)
-    radius = (abs(signed_area(outline_of(odb.get(planar_world.objects["block"].type).geometry))) / np.pi) ** 0.5
+    size = odb.get(planar_world.objects["block"].type).geometry.size
+    # a box's outline lies, on average over its length, 2 area / perimeter from its centre (its faces' distance
+    # on a square)
+    radius = outline_radius(planar_world, odb, "block")
+    assert radius == pytest.approx(size[0] * size[1] / (size[0] + size[1]))
     assert effect.seeds(seen, "block")[0]["object_scale[block]"] == pytest.approx(1.0 + 0.002 / radius)
     assert len(effect.seeds(plain, "block")) == 3
     assert effect.signature(seen, "block") > effect.signature(plain, "block")
@@ -87,6 +90,32 @@ def test_recordings_of_an_object_of_another_size_are_fitted_back(odb, tmp_path):
     assert sized.chi2 < 1.2 * exact, (sized.values(), sized.chi2 / n, exact / n)
     recovery = effect.recovered(truth, sized.values(), (), world, odb)
     assert recovery.ok, recovery.text
+
+
+def _sized(scale: float):
+    from bridge.diagnosis.identify import Scored
+
+    return Scored("object_scale", "block", {"object_scale[block]": scale}, {}, (), 3, 0.0, 1)
+
+
+def test_a_fitted_size_the_contact_gaps_do_not_show_is_contradicted():
+    """A stiff rod that does not sink into the object as Drake's compliant one does left gaps of -0.01 +- 0.03 mm
+    (an independent MuJoCo world), and a fit through the simulation made the object 1.75 % larger (+0.9 mm on an
+    ellip1) to push it earlier: the gaps measured no such size. A size the gaps show stands, within the spread of
+    the outline's distances from its centre; without gaps (no planar pusher) nothing is contradicted."""
+    from bridge.diagnosis.loader import ContactFit
+
+    def gaps(inflation: float, sd: float) -> ContactFit:
+        return ContactFit(("pusher_x", "pusher_y"), (0.0, 0.0), inflation, ((1e-8, 0.0), (0.0, 1e-8)), sd,
+                          1e-4, 1e-4, 6)
+
+    radius = 0.0524  # ellip1's
+    why = _scale_check(_sized(1.0175), gaps(-1e-5, 2.6e-5), radius)
+    assert why is not None and "+1.8 %" in why and "-0.01" in why
+    assert _scale_check(_sized(1.0175), gaps(0.8e-3, 0.1e-3), radius) is None  # the gaps show the larger object
+    assert _scale_check(_sized(0.92), gaps(-4.0e-3, 0.2e-3), radius) is None  # within the outline's spread
+    assert _scale_check(_sized(1.008), gaps(0.0, 2.6e-5), radius) is None  # 0.4 mm: a size nobody acts on
+    assert _scale_check(_sized(1.0175), None, radius) is None
 
 
 def test_a_size_no_object_can_have_is_refused_naming_the_file_and_field(planar_world, odb):

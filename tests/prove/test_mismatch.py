@@ -189,3 +189,31 @@ def test_a_rod_offset_the_contact_gaps_measure_is_held_at_the_measurement_while_
     true = np.array([truth.params["joint_offset[pusher_x]"], truth.params["joint_offset[pusher_y]"]])
     assert np.linalg.norm(np.array([scored.params["joint_offset[pusher_x]"],
                                     scored.params["joint_offset[pusher_y]"]]) - true) < 1e-3
+
+
+@pytest.mark.slow
+def test_the_contact_gaps_let_a_size_they_measure_stand_and_contradict_one_they_do_not(odb, tmp_path):
+    """Pushes of a block 5 % smaller than its model, recorded in a mismatched world: the gaps while pushing,
+    read before any simulation, measure the size, so the true size stands against them and one as far the other
+    way (what a fit soaking up the world's other differences might reach) is contradicted."""
+    from bridge.diagnosis.effects.object_scale import outline_radius
+    from bridge.diagnosis.identify import Scored, _scale_check
+    from bridge.diagnosis.loader import read_adjustments
+    from bridge.diagnosis.runs import prepare
+    from bridge.prove.generate import generate_case
+    from bridge.rollout.trials import load_trials
+
+    paths, truth = generate_case(Case(SHAPE, "object_scale", "medium", 1, "mismatched"), odb, tmp_path, 4)
+    trials = load_trials(paths, odb, observation_rate=250.0)
+    gaps = read_adjustments([prepare(t, odb, 25.0) for t in trials]).contact_fit()
+    target = truth.target
+    radius = outline_radius(trials[0].world, odb, target)
+    scale = truth.params[f"object_scale[{target}]"]
+
+    def sized(value: float) -> Scored:
+        return Scored("object_scale", target, {f"object_scale[{target}]": value}, {}, (), 3, 0.0, 1)
+
+    assert gaps is not None and gaps.inflation_evident, gaps
+    assert _scale_check(sized(scale), gaps, radius) is None, (gaps, scale)
+    why = _scale_check(sized(2.0 - scale), gaps, radius)
+    assert why is not None and "soaks up" in why
