@@ -575,7 +575,7 @@ def _scale_check(s: Scored, gaps: ContactFit | None, radius: float | None) -> st
     whose move is off the measured one by more than NOISE_SIGMAS of its uncertainty, a negligible size
     (NEGLIGIBLE) and SIZE_SPREAD of the move (the outline's distances from its centre differ from r by that
     much), whichever is largest, soaks up something else: independent MuJoCo worlds, whose stiff rod does not
-    sink into the object as Drake's compliant one does, were fitted 1.75 % larger (+1.0 mm) where the gaps
+    sink into the object as Drake's compliant one does, were fitted 1.75 % larger (+0.9 mm) where the gaps
     measured -0.01 +- 0.03 mm."""
     if gaps is None or radius is None:
         return None

@@ -11,8 +11,6 @@ recording (a larger object the rod was placed clear of) or a gap the rod crosses
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .base import Effect, Evidence, Recovery, Truth, movable_observed, pname
@@ -26,8 +24,9 @@ def outline_radius(world, odb, target: str) -> float | None:
     """How far `target`'s outline lies from its centre along its normals, averaged over its length (m; 2 area /
     perimeter, exact for any closed outline: the divergence theorem), None for an object without one. A size k
     moves the outline where the rod meets it by (k - 1) times the distance there, which this stands for
-    (`ContactFit.inflation`): within 10 % on the dataset's rectangles, ellipses and hexagon, 25 % on their
-    triangles, 50 % on the non-convex butter (10th-90th percentile over the outline's length)."""
+    (`ContactFit.inflation`): within 10 % on the dataset's rect1, ellip1 and hex, 25 % on its longer rectangles
+    and ellipses and its triangles, 50 % on the non-convex butter (10th-90th percentile over the outline's
+    length)."""
     from ...sim.prisms import outline_of, signed_area
 
     if target not in world.objects:
