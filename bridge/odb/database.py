@@ -143,7 +143,7 @@ def load_object_database(root: str | Path | None = None, *, datasets: Mapping[st
     """Load and validate the database under `root` (default: this repository's ``odb/``).
 
     `datasets` maps names used in ``dataset://NAME/...`` mesh paths to folders; names not given are looked up in
-    the environment (``BRIDGE_DATASET_<NAME>``) and then in ``../shared/datasets/NAME`` beside the repository.
+    the environment (``BRIDGE_DATASET_<NAME>``, then ``BRIDGE_<NAME>``) and then in ``../shared/datasets/NAME`` beside the repository.
     """
     root = Path(root) if root is not None else DEFAULT_ROOT
     if not root.is_dir():

@@ -62,11 +62,20 @@ class _RawType:
     source: Path
 
 
+def dataset_env_names(name: str) -> tuple[str, str]:
+    """The variables that may name dataset NAME's root, first wins: BRIDGE_DATASET_<NAME> and the short
+    BRIDGE_<NAME> (e.g. BRIDGE_MIT_PUSH, the one the recording loaders and the docs use), so one variable set
+    for the recordings also resolves the object database's meshes."""
+    key = name.upper().replace("-", "_")
+    return f"BRIDGE_DATASET_{key}", f"BRIDGE_{key}"
+
+
 def dataset_roots_from_env(names: set[str], repo_root: Path | None) -> dict[str, Path]:
-    """Roots of datasets named in ``dataset://NAME/...`` paths, from BRIDGE_DATASET_<NAME> or ../shared/datasets."""
+    """Roots of datasets named in ``dataset://NAME/...`` paths, from the environment (`dataset_env_names`) or
+    ../shared/datasets beside the repository."""
     roots: dict[str, Path] = {}
     for name in names:
-        env = os.environ.get("BRIDGE_DATASET_" + name.upper().replace("-", "_"))
+        env = next((os.environ[v] for v in dataset_env_names(name) if os.environ.get(v)), None)
         if env:
             roots[name] = Path(env)
         elif repo_root is not None and (repo_root.parent / "shared" / "datasets" / name).is_dir():

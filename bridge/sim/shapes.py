@@ -15,6 +15,7 @@ from pydrake.multibody.tree import CalcSpatialInertia, RotationalInertia, Spatia
 
 from ..errors import ObjectDatabaseError
 from ..odb import ObjectDatabase, ObjectType
+from ..odb.loader import dataset_env_names
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,7 +43,7 @@ def drake_shape(obj_type: ObjectType):
         name = g.unresolved.split("://", 1)[1].split("/", 1)[0] if g.unresolved else "?"
         raise ObjectDatabaseError(
             f"mesh {g.unresolved} needs the dataset {name!r}: pass --dataset {name}=PATH or set "
-            f"BRIDGE_DATASET_{name.upper().replace('-', '_')}", source=str(obj_type.source),
+            f"{dataset_env_names(name)[1]}", source=str(obj_type.source),
             field=f"{obj_type.name}.geometry.mesh")
     return Convex(str(g.mesh), g.scale) if g.convex else Mesh(str(g.mesh), g.scale)
 

@@ -357,6 +357,19 @@ def test_dataset_roots_from_the_environment_then_beside_the_repository(tmp_path,
     assert dataset_roots_from_env(set(), repo) == {}
 
 
+def test_the_short_variable_names_a_dataset_as_the_recording_loaders_read_it(tmp_path, monkeypatch):
+    """BRIDGE_MIT_PUSH set for the recordings must also resolve the object database's dataset://mit-push meshes;
+    a clean clone with only that variable set failed every test that built an MIT shape."""
+    for var in ("BRIDGE_DATASET_MIT_PUSH", "BRIDGE_MIT_PUSH"):
+        monkeypatch.delenv(var, raising=False)
+    repo = tmp_path / "repo"  # nothing beside it
+    assert dataset_roots_from_env({"mit-push"}, repo) == {}
+    monkeypatch.setenv("BRIDGE_MIT_PUSH", str(tmp_path / "short"))
+    assert dataset_roots_from_env({"mit-push"}, repo) == {"mit-push": tmp_path / "short"}
+    monkeypatch.setenv("BRIDGE_DATASET_MIT_PUSH", str(tmp_path / "long"))  # the long form wins
+    assert dataset_roots_from_env({"mit-push"}, repo) == {"mit-push": tmp_path / "long"}
+
+
 def test_unknown_dataset_leaves_the_mesh_unresolved(tmp_path):
     root = write_db(tmp_path / "db", MESHES)
     types, _ = read_types(root, {})
