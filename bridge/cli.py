@@ -225,6 +225,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--time-step", type=_time_step, default="auto", metavar="SECONDS|auto",
                    help="time step of every replay; auto: 3 ms when that changes the nominal replays by at most 1 %% "
                    "of their misfit, else the recordings' own 2 ms (default: %(default)s)")
+    p.add_argument("--own-speed", action="store_true", help="replay every recording at its own speed (default: slow "
+                   "recordings are replayed up to 25 mm/s where that changes their nominal replay by at most 1 %% of "
+                   "their misfit: quasi-static pushing does not depend on speed)")
     p = add("prove")
     p.add_argument("--size", choices=("small", "full"), default="small", help="small: one case per effect (CI); "
                    "full: three magnitudes, two seeds (default: %(default)s)")

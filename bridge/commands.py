@@ -467,7 +467,8 @@ def diagnose(args) -> int:
         run = diagnose_paths(args.recordings, _odb(args), args.out, held_out=args.hold_out, workers=args.workers,
                              effects=[e.strip() for e in args.effects.split(",")] if args.effects else None,
                              max_duration=args.max_duration, shape=args.shape, time_limit=args.time_limit,
-                             time_step=args.time_step, log=progress.write, progress=progress)
+                             time_step=args.time_step, log=progress.write, progress=progress,
+                             quasi_static=not args.own_speed)
     finally:
         progress.close()
     print(summary_text(run))

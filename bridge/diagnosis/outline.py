@@ -98,24 +98,32 @@ class FrameFit:
                 "object": self.object}
 
 
-def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(rod xy (n, 2), recorded object xy (n, 2), recorded yaw (n,)) at the observed samples where `obj` moves,
-    the rod from the raw telemetry (the loader's start-clearance shift taken back); None without a planar
-    pusher, an observed track of `obj` or enough samples."""
+def rod_xy(trial, obj: str, times: np.ndarray) -> np.ndarray | None:
+    """The recorded rod's centre (n, 2) at `times`, from the raw telemetry (the loader's start-clearance shift
+    for `obj` taken back); None without a planar pusher."""
     world, telemetry = trial.world, trial.telemetry
     if world.robot is None or telemetry is None or not set(PLANAR_JOINTS) <= set(telemetry.joint_names):
         return None
+    columns = [telemetry.joint_names.index(j) for j in PLANAR_JOINTS]
+    tip = telemetry.sample(np.asarray(times, dtype=float))[:, columns] + np.asarray(world.robot.base_pose.xyz[:2])
+    for a in trial.adjustments:
+        if isinstance(a, StartClearance) and a.object == obj:
+            tip = tip - np.asarray(a.shift)  # the raw recording's rod
+    return tip
+
+
+def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(rod xy (n, 2), recorded object xy (n, 2), recorded yaw (n,)) at the observed samples where `obj` moves,
+    the rod as `rod_xy` gives it; None without a planar pusher, an observed track of `obj` or enough samples."""
     track = next((t for t in trial.observations.tracks if t.object == obj), None)
     if track is None or len(track.times) < 5:
         return None
     times = np.asarray(track.times, dtype=float)
+    tip = rod_xy(trial, obj, times)
+    if tip is None:
+        return None
     xy = np.array([p.xyz[:2] for p in track.poses])
     yaw = np.unwrap([p.yaw() for p in track.poses])
-    columns = [telemetry.joint_names.index(j) for j in PLANAR_JOINTS]
-    tip = telemetry.sample(times)[:, columns] + np.asarray(world.robot.base_pose.xyz[:2])
-    for a in trial.adjustments:
-        if isinstance(a, StartClearance) and a.object == obj:
-            tip = tip - np.asarray(a.shift)  # the raw recording's rod
     moving = moving_samples(times, xy, yaw)  # the loader's rule for the samples that pin the rod on the outline
     if trial.force is not None and len(moving):  # and the rod touching, where the force says so (`touching`)
         f = trial.force

@@ -22,7 +22,7 @@ from .identify import Identification, Options, identify
 from .locate import Localisation, locate
 from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, plot_paths, plot_residuals, plot_scores, report_markdown,
                      write_outputs)
-from .runs import Runner, choose_time_step, default_workers, prepare
+from .runs import Runner, choose_time_scales, choose_time_step, default_workers, prepare
 
 RESIDUAL_RATE = 25.0  # Hz at which observed and simulated poses are compared
 SCENE_FILE = "scene.yaml"
@@ -52,13 +52,15 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
                   plots: bool = True, executor: Executor | None = None,
                   log: Callable[[str], None] | None = None,
                   progress: Callable[[int, int | None], None] | None = None,
-                  time_limit: float | None = None, time_step: float | str = "auto") -> DiagnosisRun:
+                  time_limit: float | None = None, time_step: float | str = "auto",
+                  quasi_static: bool = True) -> DiagnosisRun:
     """Diagnose `trials`; write outputs under `out` when given. Simulations run on `executor` (default: a process
     pool of `workers`, serial for one). `progress(done, total)` counts the steps of the search (`identify`);
     `time_limit` (s, from the call) stops the search there with the best so far: diagnosis.json then says
     "stopped": "time limit" and the report that the verdict is partial. `time_step` (s) of every replay; "auto":
     the coarse step (`runs.COARSE_STEP`) when its error is small against the mismatch (`choose_time_step`), else
-    the recordings' own."""
+    the recordings' own. `quasi_static`: slow recordings may be replayed faster where that changes little
+    (`choose_time_scales`); False replays every recording at its own speed."""
     started = time.perf_counter()
     limit = TimeLimit(time_limit)
     if not trials:
@@ -75,8 +77,10 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     try:
         runner = Runner(prepared, odb, executor, time_step=None if time_step == "auto" else float(time_step))
         step = choose_time_step(runner, sorted(train + held))
+        scales = choose_time_scales(runner, sorted(train + held), quasi_static)
         if log is not None:
             log(step.sentence())
+            log(scales.sentence())
         ident = identify(runner, train, held, options, log=log, progress=progress, limit=limit)
         after = None
         if out is not None and plots and ident.verdict != "none":
@@ -89,6 +93,7 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     failures = {"count": len(runner.failures), "first": [f"{t}: {m}" for t, m in runner.failures[:3]]}
     rollouts = runner.rollouts()  # the whole diagnosis, the replays of the plots included
     extra = {**limit.to_json(ident.partial), "rollouts": rollouts, "time_step": step.to_json(),
+             "time_scales": scales.to_json(),
              "simulations": runner.simulations}  # the step's choice and the plots' replays included
     if out is None:
         data = diagnosis_json(ident, failures=failures)
@@ -160,7 +165,8 @@ def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | 
                    workers: int | None = None, effects: Sequence[str] | None = None, max_duration: float | None = None,
                    quiet: bool = False, shape: str | None = None, time_limit: float | None = None,
                    time_step: float | str = "auto", log: Callable[[str], None] | None = None,
-                   progress: Callable[[int, int | None], None] | None = None) -> DiagnosisRun:
+                   progress: Callable[[int, int | None], None] | None = None,
+                   quasi_static: bool = True) -> DiagnosisRun:
     """Load recordings (folders, MIT .h5 files, folders of .h5 files; `shape` for .h5 files whose name does not
     tell theirs) and diagnose them. `log` defaults to stderr (nothing when `quiet`)."""
     from ..rollout.trials import load_trials
@@ -172,7 +178,7 @@ def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | 
     if log is None and not quiet:
         log = lambda m: print(m, file=sys.stderr, flush=True)  # noqa: E731
     return run_diagnosis(trials, odb, out, held_out=held_out, workers=workers, options=options, log=log,
-                         progress=progress, time_limit=time_limit, time_step=time_step)
+                         progress=progress, time_limit=time_limit, time_step=time_step, quasi_static=quasi_static)
 
 
 def summary_text(run: DiagnosisRun) -> str:

@@ -138,8 +138,9 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
     lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"
               f"; {data['simulations']} simulations ({data['rollouts']['simulated']} run, {data['rollouts']['cached']} from "
               f"the rollout cache) in {ident.seconds:.0f} s"]
-    if data.get("time_step"):
-        lines += [f"- {data['time_step']['note']}"]
+    for key in ("time_step", "time_scales"):
+        if data.get(key):
+            lines += [f"- {data[key]['note']}"]
     lines += [""]
     for note in ident.notes:
         lines.append(f"> {note}")

@@ -31,6 +31,11 @@ SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
 FAILED_FORCE = 1.0e3  # N per component of a failed replay's force residual
 COARSE_STEP = 0.003  # s: the time step a diagnosis replays at when its error is small against the mismatch
 STEP_SHARE = 0.01  # ... at most this share of the nominal model's chi^2 above the noise (`choose_time_step`)
+QUASI_STATIC_SPEED = 0.025  # m/s: a slower recording is replayed this fast (`rollout.quasi_static`) ...
+MAX_SCALE = 4.0  # ... at most this many times faster,
+SPEED_WINDOW = 0.2  # s over which a recording's speed is read (`recording_speed`)
+MIN_SCALE = 1.25  # ... not at all when it would save less than a fifth of the steps,
+#                   and only where it changes the replay by STEP_SHARE at most (`choose_time_scales`)
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,6 +136,7 @@ class Runner:
         self.prepared = list(prepared)
         self.odb, self.executor, self.sample_rate = odb, executor, sample_rate
         self.time_step = time_step  # s, every replay's (None: each rollout's own, `SimConfig`'s 2 ms)
+        self.time_scales: dict[int, float] = {}  # trial index -> quasi-static replay (`choose_time_scales`)
         self.simulations = 0  # asked for; `rollouts()` says how many were run and how many the cache answered
         self.failures: list[tuple[str, str]] = []  # (trial, message) of every failed replay
         self.wall = 0.0
@@ -155,6 +161,8 @@ class Runner:
         rollout = trial_rollout(p.trial, model, self.odb)
         if self.time_step is not None:
             rollout = replace(rollout, config=replace(rollout.config, time_step=self.time_step))
+        if self.time_scales.get(index, 1.0) != 1.0:
+            rollout = replace(rollout, time_scale=self.time_scales[index])
         return Job(rollout, options)
 
     def run_many(self, models: Sequence[Model], indices: Sequence[int], *, tracks: bool = False,
@@ -250,6 +258,100 @@ def choose_time_step(runner: Runner, indices: Sequence[int], coarse: float = COA
     if failed or any(r.failed is not None for r in fine) or share is None or share > STEP_SHARE:
         runner.time_step = None
     return StepChoice(runner.time_step or fine_step, fine_step, coarse, share, failed)
+
+
+@dataclass(frozen=True)
+class ScaleChoice:
+    """Which recordings a diagnosis replays faster than they ran (quasi-static), and why."""
+
+    speeds: Mapping[str, float]  # recording -> m/s: how fast its objects (and a planar rod) moved while moving
+    tried: Mapping[str, float]  # recording -> the scale tried
+    shares: Mapping[str, float | None]  # recording -> chi^2 of the change over its nominal chi^2 above the noise
+    taken: Mapping[str, float]  # recording -> the scale kept
+    asked_off: bool = False
+
+    def sentence(self) -> str:
+        if self.asked_off:
+            return "every recording replayed at its own speed, as asked"
+        if not self.tried:
+            return (f"every recording replayed at its own speed: none moved slower than "
+                    f"{1e3 * QUASI_STATIC_SPEED / MIN_SCALE:.0f} mm/s")
+        kept = ", ".join(f"{n} x{k:.2g}" for n, k in self.taken.items()) or "none"
+        refused = [n for n in self.tried if n not in self.taken]
+        text = (f"slow recordings replayed faster (quasi-static, up to {1e3 * QUASI_STATIC_SPEED:.0f} mm/s): {kept}")
+        if refused:
+            text += (f"; at their own speed: {', '.join(refused)} (the faster replay changed it by more than "
+                     f"{100 * STEP_SHARE:g} % of its chi^2 above the noise, or it sits at the noise)")
+        return text
+
+    def to_json(self) -> dict:
+        return {"speeds_mps": {n: float(f"{v:.4g}") for n, v in self.speeds.items()},
+                "tried": {n: round(k, 4) for n, k in self.tried.items()},
+                "taken": {n: round(k, 4) for n, k in self.taken.items()},
+                "shares": {n: None if v is None else float(f"{v:.4g}") for n, v in self.shares.items()},
+                "note": self.sentence()}
+
+
+def recording_speed(p: Prepared) -> float:
+    """How fast a recording's motion went (m/s): the largest 90th percentile, over its observed objects and a
+    planar robot's rod, of the speed at the samples where that one moves (a tenth of its top speed or more),
+    each speed over SPEED_WINDOW (a difference of noisy poses 40 ms apart reads 0.2 mm of noise as 5 mm/s)."""
+    from .outline import rod_xy
+
+    paths = [(s.times, s.xyz[:, :2]) for s in p.series]
+    rod = rod_xy(p.trial, p.series[0].object, p.series[0].times)
+    if rod is not None:
+        paths.append((p.series[0].times, rod))
+    fastest = 0.0
+    for times, xy in paths:
+        if len(times) < 3:
+            continue
+        half = SPEED_WINDOW / 2
+        later = np.stack([np.interp(times + half, times, xy[:, k]) for k in (0, 1)], axis=1)
+        earlier = np.stack([np.interp(times - half, times, xy[:, k]) for k in (0, 1)], axis=1)
+        span = np.minimum(times + half, times[-1]) - np.maximum(times - half, times[0])
+        speed = np.linalg.norm(later - earlier, axis=1) / np.maximum(span, 1e-9)
+        top = float(np.max(speed))
+        if top > 0.0:
+            fastest = max(fastest, float(np.percentile(speed[speed >= 0.1 * top], 90)))
+    return fastest
+
+
+def choose_time_scales(runner: Runner, indices: Sequence[int], enabled: bool = True) -> ScaleChoice:
+    """Replay slow recordings faster (`rollout.quasi_static`) where that changes their nominal replay by little
+    against what the diagnosis explains.
+
+    A recording whose motion went slower than QUASI_STATIC_SPEED / MIN_SCALE is tried at QUASI_STATIC_SPEED
+    (at most MAX_SCALE times faster); it keeps the scale when the change d of its nominal residual has chi^2(d)
+    at most STEP_SHARE of its nominal chi^2 above the noise: the rule the time step follows, per recording
+    (`choose_time_step`). Near the noise (a world the model matches) or where the faster replay fails, the
+    recording runs at its own speed. Costs one replay of each recording tried, at its faster speed (the nominal
+    replays at their own speed are those the step's choice ran). Sets `runner.time_scales`."""
+    names = {i: runner.prepared[i].name for i in indices}
+    speeds = {i: recording_speed(runner.prepared[i]) for i in indices}
+    if not enabled:
+        runner.time_scales = {}
+        return ScaleChoice({names[i]: v for i, v in speeds.items()}, {}, {}, {}, asked_off=True)
+    tried = {i: min(MAX_SCALE, QUASI_STATIC_SPEED / v) for i, v in speeds.items() if v > 0.0}
+    tried = {i: k for i, k in tried.items() if k >= MIN_SCALE}
+    shares: dict[int, float | None] = {}
+    taken: dict[int, float] = {}
+    if tried:
+        order = sorted(tried)
+        runner.time_scales = {}
+        base = runner.run((), order, tracks=True, contacts=True)
+        runner.time_scales = dict(tried)
+        fast = runner.run((), order, tracks=True, contacts=True)
+        for i, b, f in zip(order, base, fast):
+            excess = b.chi2 - b.normalised.size
+            ok = b.failed is None and f.failed is None and excess > 0
+            d = f.normalised - b.normalised if ok else None
+            shares[i] = float(d @ d) / excess if ok else None
+            if ok and shares[i] <= STEP_SHARE:
+                taken[i] = tried[i]
+    runner.time_scales = taken
+    return ScaleChoice({names[i]: v for i, v in speeds.items()}, {names[i]: k for i, k in tried.items()},
+                       {names[i]: v for i, v in shares.items()}, {names[i]: k for i, k in taken.items()})
 
 
 def default_workers() -> int:

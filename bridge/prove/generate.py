@@ -44,8 +44,8 @@ from ..sim.simulate import SimOptions
 from ..values import Pose
 from ..world import world_to_dict
 from .mismatch import Mismatch, Sensors, draw_mismatch
-from .scenes import (MAGNITUDES, NOISE_FORCE, NOISE_POSITION, NOISE_ROTATION, OBS_RATE, TEL_RATE, Case, SceneSpec,
-                     design_pushes, nominal_world, scene_spec)
+from .scenes import (MAGNITUDES, NOISE_FORCE, NOISE_POSITION, NOISE_ROTATION, OBS_RATE, PUSH_SPEEDS, TEL_RATE,
+                     Case, SceneSpec, design_pushes, nominal_world, scene_spec)
 
 
 def case_truth(case: Case, spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator) -> Truth:
@@ -73,11 +73,13 @@ def noisy_track(obj: str, times: np.ndarray, track: np.ndarray, rng: np.random.G
 
 def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
                   noise: tuple[float, float] = (NOISE_POSITION, NOISE_ROTATION),
-                  force_noise: float | None = NOISE_FORCE) -> tuple[list[Path], Truth]:
+                  force_noise: float | None = NOISE_FORCE,
+                  speeds: tuple[float, float] = PUSH_SPEEDS) -> tuple[list[Path], Truth]:
     """Write `n` recordings under `folder` with `case`'s effect concealed, truth.json beside them: recording
     folders (rec_00, ...) or, in a scene recorded as the MIT pushing dataset records (`mit_<shape>`), h5 files
     (rec_00.h5, ...). A case in a mismatched world (`case.world`) draws its `Mismatch` after the effect's truth
-    and applies it beneath the effect. `force_noise` None leaves the rod's force sensor out (poses only)."""
+    and applies it beneath the effect. `force_noise` None leaves the rod's force sensor out (poses only); the
+    rod's speeds are drawn from `speeds` (m/s)."""
     mismatched = case.world == "mismatched"
     spec = scene_spec(case.scene, odb, varied=mismatched)
     rng = np.random.default_rng(case.seed)
@@ -90,7 +92,8 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
     effect = get_effect(case.effect)
     paths = []
     real_size = truth.params.get(pname("object_scale", spec.object), 1.0)  # pushes start clear of the real object
-    for k, push in enumerate(design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local, scale=real_size)):
+    for k, push in enumerate(design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local, scale=real_size,
+                                                   speeds=speeds)):
         exact = Rollout(nominal_world(spec, odb, push.start), Telemetry(push.times, ("pusher_x", "pusher_y"), push.path),
                         name=f"{case.name}/rec_{k:02d}")
         if mismatched:

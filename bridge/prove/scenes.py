@@ -142,14 +142,18 @@ def nominal_world(spec: SceneSpec, odb: ObjectDatabase, start: Sequence[float]) 
 
 
 # --- push designs -------------------------------------------------------------------------------------------
+PUSH_SPEEDS = (0.06, 0.2)  # m/s: the rod's speeds of a proof's pushes (the MIT data's 10-150 mm/s, fast half)
+
+
 def design_pushes(spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator, n: int,
-                  gap: tuple[float, float] = (0.004, 0.004), *, local: bool = False, scale: float = 1.0) -> list[Push]:
+                  gap: tuple[float, float] = (0.004, 0.004), *, local: bool = False, scale: float = 1.0,
+                  speeds: tuple[float, float] = PUSH_SPEEDS) -> list[Push]:
     """Pushes at varied contact points, speeds and lengths, each ending with the rod stopping dead so the object
     slides on: mostly along +x (within +-30 deg, the object within +-23 deg), or, in a scene of `varied`
     mechanisms, in any direction with the object at any yaw (within +-60 deg of +x for a `local` effect, whose
     place lies that way, so that most pushes pass it). The rod starts `gap` (drawn in the range) clear of the
     object's outline (`prisms.outline_of`; any prism, convex or not), of the real object `scale` times the model's
-    size when the case conceals one (`object_scale`)."""
+    size when the case conceals one (`object_scale`). The rod's speed is drawn from `speeds` (m/s)."""
     yaw_range, push_range = (0.4, 0.5) if not spec.varied else (math.pi, 1.05 if local else math.pi)
     from ..sim.prisms import outline_of
 
@@ -164,7 +168,7 @@ def design_pushes(spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator
         d = np.array([math.cos(phi), math.sin(phi)])
         perp = np.array([-d[1], d[0]])
         s = rng.uniform(-0.55, 0.55) * float(np.min(half))
-        v = rng.uniform(0.06, 0.2)
+        v = rng.uniform(*speeds)
         travel = rng.uniform(0.06, 0.10)
         clearance = gap[0] if gap[1] <= gap[0] else rng.uniform(*gap)
         start = _rod_start(outline, (x0, y0, yaw), np.array([x0, y0]) + s * perp, d, clearance)

@@ -12,6 +12,7 @@ fresh context per replay, so recordings of one scene share one diagram however t
 """
 from __future__ import annotations
 
+import math
 import time as wallclock
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
@@ -44,6 +45,13 @@ class Rollout:
     # tracker's markers off the object's centre, turned); the replay reports it beside the body's poses
     # (`ReplayResult.observed_track`), the world's poses stay the bodies'
     frames: tuple[tuple[str, Pose], ...] = ()
+    # quasi-static replay: the telemetry played this many times faster and every output put back on the
+    # recording's clock (`run_rollout`); 1 simulates the recording as it ran
+    time_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.time_scale) and self.time_scale >= 1.0):
+            raise ValueError(f"Rollout.time_scale must be a finite number >= 1, got {self.time_scale!r}")
 
     def with_world(self, world: WorldState) -> "Rollout":
         return replace(self, world=world)
@@ -93,10 +101,48 @@ def run_rollout(rollout: Rollout, odb: ObjectDatabase, options: SimOptions = Sim
                 on_sample: Callable[[float, Mapping[str, Pose], list[Contact]], None] | None = None,
                 progress: Callable[[float, float], None] | None = None) -> ReplayResult:
     """Simulate `rollout` in this process (its scene from the cache). Raises `SimulationFailure` when the replay
-    fails (see `bridge.sim.simulate.FailurePolicy`) and any other `BridgeError` for bad input."""
-    result = simulate(scene_for(rollout, odb), rollout.telemetry, world=rollout.world, values=rollout.values,
+    fails (see `bridge.sim.simulate.FailurePolicy`) and any other `BridgeError` for bad input. Times given to
+    `on_sample` and `progress`, and every time in the result, are the recording's (see `quasi_static`)."""
+    k = rollout.time_scale
+    telemetry = rollout.telemetry
+    if k != 1.0:
+        telemetry, options = quasi_static(telemetry, options, k)
+        on_sample = (lambda t, poses, contacts, f=on_sample: f(t * k, poses, contacts)) if on_sample else None
+        progress = (lambda t, end, f=progress: f(t * k, end * k)) if progress else None
+    result = simulate(scene_for(rollout, odb), telemetry, world=rollout.world, values=rollout.values,
                       hooks=rollout.hooks, options=options, on_sample=on_sample, progress=progress)
+    if k != 1.0:
+        result = on_recording_clock(result, k)
     return replace(result, frames=rollout.frames) if rollout.frames else result
+
+
+def quasi_static(telemetry: Telemetry | None, options: SimOptions, k: float) -> tuple[Telemetry | None, SimOptions]:
+    """The telemetry played `k` times faster (its clock from 0 divided by k) and the options that sample it at
+    the same points of the motion.
+
+    Why: a slow push is quasi-static. Its path is set by friction and geometry, not by speed, as long as the
+    inertial forces stay small against friction: m v^2 / L against mu m g, a few thousandths at 25 mm/s on a
+    path that turns over L = 5 cm with mu = 0.3. Most of a slow recording's cost is steps in which nothing
+    dynamic happens; played faster, the same motion takes 1/k of the steps. What it changes: the robot's servo
+    lags k times as far behind its telemetry while it moves, and an object coasts (k v)^2 / (2 mu g) after it
+    stops (measured on real 10 mm/s MIT pushes of ellip3: 0.15 mm at most along the track at k = 2, 0.2 mm at
+    2.5, against the dataset's ~0.1 mm pose noise and millimetres of model error); the diagnosis takes it only
+    where that is small against what it explains (`diagnosis.runs.choose_time_scales`). A latency or any other
+    telemetry change is applied before, on the recording's clock."""
+    if telemetry is not None:
+        telemetry = replace(telemetry, times=telemetry.times / k)
+    end = options.end / k if options.end is not None else None
+    return telemetry, replace(options, sample_rate=options.sample_rate * k, settle=options.settle / k, end=end)
+
+
+def on_recording_clock(result: ReplayResult, k: float) -> ReplayResult:
+    """A replay of telemetry played `k` times faster (`quasi_static`) with its times put back on the recording's
+    clock; positions, poses and forces stay as simulated."""
+    def later(contacts):
+        return tuple(replace(c, time=c.time * k) for c in contacts)
+    return replace(result, times=result.times * k, contact_log=later(result.contact_log),
+                   final_contacts=later(result.final_contacts), sim_time=result.sim_time * k,
+                   awake=tuple((a * k, b * k) for a, b in result.awake))
 
 
 def check_rollout(rollout: Rollout, odb: ObjectDatabase) -> Scene:

@@ -145,3 +145,24 @@ def test_a_patch_is_tried_only_where_a_residual_begins_mid_push(planar_world, od
     # each square begins where the objects' leading edges were at the onset (origin + 5 cm reach along +x)
     assert {(round(s[pname("patch_cx", "surface")], 4), round(s[pname("patch_cy", "surface")], 4))
             for s in ahead} == {(0.11, 0.0), (0.2, 0.0)}
+
+
+def test_a_squeezed_object_places_the_post_on_the_line_of_the_rods_force():
+    """A jam many times what sliding needs leaves the object two forces in balance, the rod's and the post's, on
+    one line: the post touches the object where that line leaves it. Placed ahead of the object's origin along
+    the push instead, an ellipse squeezed past a post beside its path got its seed 73 mm from the post (an
+    independent MuJoCo world, diagnosed `none`); on the line, 2 mm."""
+    import numpy as np
+
+    from bridge.diagnosis.effects.hidden_obstacle import _across, _gap
+    from bridge.params.kinds import OBSTACLE_RADIUS
+
+    square = np.array([[-0.05, -0.05], [0.05, -0.05], [0.05, 0.05], [-0.05, 0.05]])
+    rod = np.array([-0.05 - 0.00476, -0.03])  # on the left face, 2 cm below the middle
+    u = np.array([math.cos(math.radians(30)), math.sin(math.radians(30))])  # the force into the object
+    jam = {"jam_xy_obs": (0.0, 0.0), "jam_yaw_obs": 0.0, "jam_rod_xy": tuple(rod), "jam_force_dir": tuple(u)}
+    post = _across(square, jam)
+    off_line = abs(float(u[0] * (post - rod)[1] - u[1] * (post - rod)[0]))
+    assert off_line < 1e-6 and float(u @ (post - rod)) > 0.1  # on the line, beyond the object
+    assert abs(_gap(square, (0.0, 0.0), 0.0, post)) < 2e-4  # touching the outline
+    assert post[1] > OBSTACLE_RADIUS  # at the upper face the line leaves by, not ahead of the origin (y = 0)

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from bridge.diagnosis.runs import COARSE_STEP, STEP_SHARE, Runner, choose_time_step, prepare
+from bridge.diagnosis.runs import (COARSE_STEP, QUASI_STATIC_SPEED, STEP_SHARE, Runner, choose_time_scales,
+                                    choose_time_step, prepare)
 from bridge.prove.generate import generate_case
 from bridge.prove.scenes import Case
 from bridge.rollout import load_trials, make_executor
@@ -46,3 +47,36 @@ def test_a_step_the_caller_sets_is_kept_without_a_replay(odb, tmp_path):
     choice = choose_time_step(runner, [0, 1])
     assert choice.asked and choice.time_step == 0.0025 and runner.simulations == 0
     assert runner.job((), 1).rollout.config.time_step == 0.0025 and "as asked" in choice.sentence()
+
+
+# --- quasi-static replays (`runs.choose_time_scales`) -------------------------------------------------------------
+def _slow_runner(odb, folder, effect: str, magnitude: str, speeds=(0.008, 0.012)) -> Runner:
+    paths, _ = generate_case(Case("planar", effect, magnitude, 3), odb, folder, 2, force_noise=None, speeds=speeds)
+    return Runner([prepare(t, odb, 25.0) for t in load_trials(paths, odb)], odb, make_executor("serial", odb))
+
+
+def test_slow_pushes_that_miss_by_far_more_than_a_faster_replay_changes_are_replayed_faster(odb, tmp_path):
+    """Pushes at 8-12 mm/s of a block with an off-centre weight: played at 25 mm/s, each nominal replay changes by
+    far less than the weight moves it, so every replay of the diagnosis after the choice runs faster."""
+    runner = _slow_runner(odb, tmp_path / "com", "com_offset", "medium")
+    choice = choose_time_scales(runner, [0, 1])
+    names = [p.name for p in runner.prepared]
+    assert all(0.006 < choice.speeds[n] < 0.016 for n in names), choice.speeds
+    assert set(choice.taken) == set(names), choice
+    assert all(choice.shares[n] <= STEP_SHARE for n in names)
+    assert all(choice.taken[n] == pytest.approx(QUASI_STATIC_SPEED / choice.speeds[n]) for n in names)
+    assert runner.job((), 0).rollout.time_scale == choice.taken[names[0]]
+    assert "replayed faster" in choice.sentence()
+
+
+def test_a_world_the_model_matches_and_fast_pushes_are_replayed_at_their_own_speed(odb, tmp_path):
+    """At the noise floor the faster replay's own change would be read as physics; pushes at 60-200 mm/s are
+    not tried at all; and the caller may turn it off."""
+    clean = _slow_runner(odb, tmp_path / "none", "none", "medium")
+    choice = choose_time_scales(clean, [0, 1])
+    assert choice.tried and not choice.taken and clean.job((), 0).rollout.time_scale == 1.0
+    fast = _runner(odb, tmp_path / "fast", "com_offset", "medium")
+    assert not choose_time_scales(fast, [0, 1]).tried and fast.simulations == 0
+    slow = _slow_runner(odb, tmp_path / "com", "com_offset", "medium")
+    off = choose_time_scales(slow, [0, 1], enabled=False)
+    assert not off.taken and slow.simulations == 0 and "own speed, as asked" in off.sentence()

@@ -57,7 +57,8 @@ class HiddenObstacle(Effect):
         one post radius off the outline at the observed pose (`_ahead`, `_touching_all`)."""
         outline = _outline(evidence)
         jams = [f for f in evidence.features if f.get("jam_xy_obs") is not None]
-        spots = [_ahead(outline, f["jam_xy_obs"], f.get("jam_yaw_obs"), f["direction"], f["jam_reach"]) for f in jams]
+        spots = [_across(outline, f) if f.get("jam_force_dir") is not None and outline is not None else
+                 _ahead(outline, f["jam_xy_obs"], f.get("jam_yaw_obs"), f["direction"], f["jam_reach"]) for f in jams]
         met = _touching_all(outline, jams, np.median(spots, axis=0)) if len(jams) >= 2 else None
         if met is not None:
             spots.insert(0, met)
@@ -131,19 +132,29 @@ def _gap(outline: np.ndarray, xy, yaw: float, point: np.ndarray) -> float:
     return float(signed_distance(local, outline)[0]) - OBSTACLE_RADIUS
 
 
-def _ahead(outline: np.ndarray | None, xy, yaw: float | None, direction, reach: float) -> np.ndarray:
-    """The post straight ahead of the object's origin at (xy, yaw) along `direction` that just touches its
-    outline; without an outline (or a pose), the farthest reach along the push plus a radius."""
+def _ahead(outline: np.ndarray | None, xy, yaw: float | None, direction, reach: float, origin=None) -> np.ndarray:
+    """The post straight ahead of `origin` (default: the object's origin) along `direction` that just touches the
+    outline at pose (xy, yaw); without an outline (or a pose), `reach` (the farthest reach along the push) plus a
+    radius."""
     xy, d = np.asarray(xy, dtype=float), np.asarray(direction, dtype=float)
+    start = xy if origin is None else np.asarray(origin, dtype=float)
     far = reach + OBSTACLE_RADIUS
     if outline is None or yaw is None:
-        return xy + d * far
+        return start + d * far
 
     def gap(t: float) -> float:
-        return _gap(outline, xy, yaw, xy + t * d)
-    if gap(0.0) >= 0.0 or gap(far + 0.01) <= 0.0:  # the origin outside its own outline: no ray to follow
-        return xy + d * far
-    return xy + d * brentq(gap, 0.0, far + 0.01, xtol=1e-4)
+        return _gap(outline, xy, yaw, start + t * d)
+    if gap(0.0) >= 0.0 or gap(far + 0.01) <= 0.0:  # the start too far outside the outline: no ray to follow
+        return start + d * far
+    return start + d * brentq(gap, 0.0, far + 0.01, xtol=1e-4)
+
+
+def _across(outline: np.ndarray, jam: dict) -> np.ndarray:
+    """The post on the line of the rod's force that just touches the jammed object's outline beyond it (`locate.
+    _jam_line`: a squeezed object balances the rod's force against the obstacle's along one line)."""
+    span = 2.0 * float(np.max(np.linalg.norm(outline, axis=1))) + OBSTACLE_RADIUS + 0.01
+    return _ahead(outline, jam["jam_xy_obs"], jam["jam_yaw_obs"], jam["jam_force_dir"], span,
+                  origin=jam["jam_rod_xy"])
 
 
 def _touching_all(outline: np.ndarray | None, jams, start: np.ndarray) -> np.ndarray | None:
