@@ -383,6 +383,10 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         notes.append(check)
     scored = _rank(scored, verdict, floor)
     scored = _winner_uncertainty(ev, scored, verdict, fits, tau)
+    weight = _weight_note(next(s for s in scored if s.effect == verdict), loc, world, odb)
+    if weight:
+        notes.append(weight)
+        say(weight)
     unexplained = _unexplained(next(s for s in scored if s.effect == verdict), loc)
     if unexplained:
         notes.append(unexplained)
@@ -692,6 +696,37 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
         return best.effect, ("; ".join(reasons) + f"; {why}: the verdict") if reasons else None, floor
     tail = "no effect of the catalog is confirmed" + ("" if floor is none else ", the fitted friction is the model")
     return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
+
+
+def _weight_note(winner: Scored, loc: Localisation, world, odb) -> str | None:
+    """What the report says when the verdict moved an object's weight or its sliding coefficient: a quasi-static
+    push measures only their product (the force it takes is mu m g, and the path does not depend on it), so a
+    heavier object on the database's surface and a rougher surface under the database's object push alike; only
+    the slide-on after the rod stops, (v^2 / 2 mu g), depends on mu alone (a millimetre or less at the MIT
+    data's speeds). Said when the product moved by a tenth or more."""
+    if winner.effect not in ("friction", "mass"):
+        return None
+    from ..sim.friction import combined_friction
+    from ..sim.shapes import mass_properties
+    from .effects.base import model_friction, movable_observed
+
+    for obj in movable_observed(world, odb, [o.object for o in loc.objects]):
+        surface = support_of(world, odb, obj)
+        if surface is None:
+            continue
+        def pair(model: Model) -> float:
+            return combined_friction(model_friction(model, world, odb, obj), model_friction(model, world, odb, surface))
+        m0 = mass_properties(odb, world.objects[obj].type).mass
+        m = float(winner.params.get(pname("mass", obj), m0))
+        mu0, mu = pair(()), pair(winner.model)
+        if mu0 <= 0 or abs(math.log(mu * m / (mu0 * m0))) < 0.1:
+            continue
+        return (f"{obj} on {surface}: the fitted model pushes with weight x sliding coefficient = {m:.3g} kg x "
+                f"{mu:.3g} = {mu * m:.3g} kg (the database: {m0:.3g} kg x {mu0:.3g}); quasi-static pushes measure only "
+                f"that product: a {mu * m / mu0:.3g} kg {obj} on the database's surface (`mass`) and a coefficient "
+                f"of {mu * m / m0:.3g} under the database's {m0:.3g} kg (`friction`) push alike; only the slide-on "
+                f"after the rod stops, which the coefficient alone sets, tells them apart")
+    return None
 
 
 def _unexplained(winner: Scored, loc: Localisation) -> str | None:

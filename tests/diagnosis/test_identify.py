@@ -142,3 +142,30 @@ def test_the_reported_uncertainty_counts_correlated_samples_once():
     white = _with_uncertainty(model, result, 1.0).std["latency[robot]"]
     assert white == pytest.approx(0.03 / 10)
     assert _with_uncertainty(model, result, 4.0).std["latency[robot]"] == pytest.approx(2 * white)
+
+
+def test_a_weight_or_coefficient_verdict_says_the_pushes_measure_only_their_product(planar_world, odb):
+    """Quasi-static pushes take mu m g whatever the split: a block twice as heavy (an independent world's concealed
+    mass) was diagnosed `friction` with the coefficient doubled. The report says what the pushes measured, the
+    product, and both readings of it; a product the verdict left alone, or another verdict, says nothing."""
+    from types import SimpleNamespace
+
+    from bridge.diagnosis.effects import get_effect
+    from bridge.diagnosis.identify import _weight_note
+    from bridge.sim.shapes import mass_properties
+
+    loc = SimpleNamespace(objects=[SimpleNamespace(object="block")])
+    m0 = mass_properties(odb, planar_world.objects["block"].type).mass
+    mu0 = odb.get(planar_world.objects["block"].type).physics.friction
+
+    def verdict(effect, params):
+        return Scored(effect, "block", params, {}, get_effect(effect).model(planar_world, odb, "block", params), 1, 0.0, 1)
+
+    rough = _weight_note(verdict("friction", {"friction[block]": 2.5 * mu0}), loc, planar_world, odb)
+    assert rough is not None and "measure only that product" in rough
+    heavy = float(rough.split(" kg block on the database's surface")[0].rsplit("a ", 1)[1])
+    assert m0 < heavy < 2.6 * m0  # the pair's coefficient rose less than the object's own (the surface's stays)
+    twice = _weight_note(verdict("mass", {"mass[block]": 2.0 * m0, "mass_spread[block]": 1.0}), loc, planar_world, odb)
+    assert twice is not None and f"a {2.0 * m0:.3g} kg block" in twice
+    assert _weight_note(verdict("friction", {"friction[block]": 1.02 * mu0}), loc, planar_world, odb) is None
+    assert _weight_note(verdict("com_offset", {"com_x[block]": 0.01}), loc, planar_world, odb) is None
