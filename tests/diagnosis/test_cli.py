@@ -16,7 +16,8 @@ def test_diagnose_writes_a_valid_report(odb, tmp_path, capsys):
     out.mkdir()
     (out / "scene.yaml").write_text("# an earlier diagnosis' scene file\n")  # stale beside a verdict of none
     (out / "residual_old_run_box.png").write_bytes(b"")
-    assert main(["diagnose", *map(str, paths), "--out", str(out), "--workers", "1", "--hold-out", "1"]) == 0
+    assert main(["diagnose", *map(str, paths), "--out", str(out), "--workers", "1", "--hold-out", "1",
+                 "--own-speed"]) == 0
     printed = capsys.readouterr().out
     assert "verdict: none" in printed
     data = json.loads((out / "diagnosis.json").read_text())
@@ -27,6 +28,8 @@ def test_diagnose_writes_a_valid_report(odb, tmp_path, capsys):
     assert report.startswith("# Diagnosis")
     # a clean world sits at the noise floor: the coarse step would be read as physics, the recordings' 2 ms stays
     assert data["time_step"]["time_step_s"] == 0.002 and data["time_step"]["note"] in report
+    assert data["time_scales"]["taken"] == {} and "own speed, as asked" in data["time_scales"]["note"]
+    assert data["time_scales"]["note"] in report
     assert (out / "paths.png").is_file() and (out / "effects.png").is_file()
     assert not (out / "scene.yaml").exists() and not (out / "residual_old_run_box.png").exists()  # one report
     assert not list(out.glob(".*"))  # no lock file, no temporary file
