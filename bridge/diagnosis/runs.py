@@ -33,9 +33,9 @@ COARSE_STEP = 0.003  # s: the time step a diagnosis replays at when its error is
 STEP_SHARE = 0.01  # ... at most this share of the nominal model's chi^2 above the noise (`choose_time_step`)
 QUASI_STATIC_SPEED = 0.025  # m/s: a slower recording is replayed this fast (`rollout.quasi_static`) ...
 MAX_SCALE = 4.0  # ... at most this many times faster,
-SPEED_WINDOW = 0.2  # s over which a recording's speed is read (`recording_speed`)
 MIN_SCALE = 1.25  # ... not at all when it would save less than a fifth of the steps,
 #                   and only where it changes the replay by STEP_SHARE at most (`choose_time_scales`)
+SPEED_WINDOW = 0.2  # s over which a recording's speed is read (`recording_speed`)
 
 
 @dataclass(frozen=True, eq=False)
