@@ -141,13 +141,20 @@ def motion_span(times: np.ndarray, positions: np.ndarray) -> tuple[float, float]
     times = np.asarray(times, dtype=float)
     if len(times) < 2:
         return None
-    half = MOVING_WINDOW / 2
-    columns = np.asarray(positions, dtype=float).reshape(len(times), -1).T
-    speed = np.abs(np.stack([np.interp(times + half, times, q) - np.interp(times - half, times, q)
-                             for q in columns], axis=1)) / MOVING_WINDOW
+    speed = np.abs(window_rate(times, positions, MOVING_WINDOW))
     peak = speed.max(axis=0)
     moving = np.nonzero(np.any((speed > MOVING_SHARE * peak) & (peak > 0), axis=1))[0]
     return (float(times[moving[0]]), float(times[moving[-1]])) if len(moving) else None
+
+
+def window_rate(times: np.ndarray, values: np.ndarray, window: float) -> np.ndarray:
+    """(n, k): each column's change over `window` centred on each time, per second (the signal held beyond its
+    ends): a rate that noise of a sample or two does not set."""
+    times = np.asarray(times, dtype=float)
+    half = window / 2
+    columns = np.asarray(values, dtype=float).reshape(len(times), -1).T
+    return np.stack([np.interp(times + half, times, q) - np.interp(times - half, times, q) for q in columns],
+                    axis=1) / window
 
 
 def window_mean(times: np.ndarray, values: np.ndarray, grid: np.ndarray, points: int = 9) -> np.ndarray:

@@ -25,7 +25,7 @@ from ..rollout.trials import Trial
 from ..sim.simulate import SimOptions
 from ..values import Contact
 from .residuals import (ForceSeries, ObservedSeries, force_normalised, force_residual, force_series, motion_span,
-                        normalised, observed_series)
+                        normalised, observed_series, window_rate)
 
 SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
 FAILED_FORCE = 1.0e3  # N per component of a failed replay's force residual
@@ -306,11 +306,7 @@ def recording_speed(p: Prepared) -> float:
     for times, xy in paths:
         if len(times) < 3:
             continue
-        half = SPEED_WINDOW / 2
-        later = np.stack([np.interp(times + half, times, xy[:, k]) for k in (0, 1)], axis=1)
-        earlier = np.stack([np.interp(times - half, times, xy[:, k]) for k in (0, 1)], axis=1)
-        span = np.minimum(times + half, times[-1]) - np.maximum(times - half, times[0])
-        speed = np.linalg.norm(later - earlier, axis=1) / np.maximum(span, 1e-9)
+        speed = np.linalg.norm(window_rate(times, xy, SPEED_WINDOW), axis=1)
         top = float(np.max(speed))
         if top > 0.0:
             fastest = max(fastest, float(np.percentile(speed[speed >= 0.1 * top], 90)))

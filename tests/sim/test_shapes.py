@@ -32,5 +32,5 @@ def test_dataset_mesh_without_root_fails_only_when_used(odb_copy):
     (odb_copy / "types" / "extra.yaml").write_text(
         'ghost: {parent: mit_shape, geometry: {shape: mesh, mesh: "dataset://other-set/x.obj"}}\n')
     odb = load_object_database(odb_copy)
-    with pytest.raises(ObjectDatabaseError, match=r"--dataset other-set=PATH"):
+    with pytest.raises(ObjectDatabaseError, match=r"--dataset other-set=PATH or set BRIDGE_OTHER_SET"):
         mass_properties(odb, "ghost")
