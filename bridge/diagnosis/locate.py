@@ -240,7 +240,7 @@ def locate_object(p: Prepared, s: ObservedSeries, run: Run, odb: ObjectDatabase,
     measured = tuple(k for k, m in (("along", s.measured[0] or s.measured[1]), ("across", s.measured[0] or s.measured[1]),
                                     ("z", s.measured[2]), ("yaw", s.measured[5]),
                                     ("tilt", s.measured[3] or s.measured[4])) if m)
-    z2 = (r[:, s.measured] / s.sigma[s.measured]) ** 2  # (n, m)
+    z2 = (r[:, s.measured] / s.tolerance[:, s.measured]) ** 2  # (n, m): where the model forks, its fork counts too
     chi_t = np.sqrt(np.mean(z2, axis=1)) if z2.size else np.zeros(len(s.times))
     chi2, n = float(z2.sum()), int(z2.size)
 

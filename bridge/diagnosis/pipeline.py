@@ -18,6 +18,7 @@ from ..params import Model, Parameter, ParameterSet, kind_named, param_file_text
 from ..rollout.executors import Executor, make_executor
 from ..rollout.trials import Trial
 from ..timelimit import TimeLimit
+from .forks import measure_forks
 from .identify import Identification, Options, identify
 from .locate import Localisation, locate
 from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, plot_paths, plot_residuals, plot_scores, report_markdown,
@@ -78,9 +79,11 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
         runner = Runner(prepared, odb, executor, time_step=None if time_step == "auto" else float(time_step))
         step = choose_time_step(runner, sorted(train + held))
         scales = choose_time_scales(runner, sorted(train + held), quasi_static)
+        forks = measure_forks(runner, sorted(train + held))
         if log is not None:
             log(step.sentence())
             log(scales.sentence())
+            log(forks.sentence())
         ident = identify(runner, train, held, options, log=log, progress=progress, limit=limit)
         after = None
         if out is not None and plots and ident.verdict != "none":
@@ -93,7 +96,7 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
     failures = {"count": len(runner.failures), "first": [f"{t}: {m}" for t, m in runner.failures[:3]]}
     rollouts = runner.rollouts()  # the whole diagnosis, the replays of the plots included
     extra = {**limit.to_json(ident.partial), "rollouts": rollouts, "time_step": step.to_json(),
-             "time_scales": scales.to_json(),
+             "time_scales": scales.to_json(), "forks": forks.to_json(),
              "simulations": runner.simulations}  # the step's choice and the plots' replays included
     if out is None:
         data = diagnosis_json(ident, failures=failures)

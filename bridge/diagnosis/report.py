@@ -138,7 +138,7 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
     lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"
               f"; {data['simulations']} simulations ({data['rollouts']['simulated']} run, {data['rollouts']['cached']} from "
               f"the rollout cache) in {ident.seconds:.0f} s"]
-    for key in ("time_step", "time_scales"):
+    for key in ("time_step", "time_scales", "forks"):
         if data.get(key):
             lines += [f"- {data[key]['note']}"]
     lines += [""]

@@ -36,11 +36,19 @@ class ObservedSeries:
     sigma: np.ndarray  # (6,) noise per component
     measured: np.ndarray  # (6,) bool: the component carries information
     estimated: bool  # False when the track was too short and SPARSE_SIGMA stands in
+    fork: np.ndarray | None = None  # (n, 6): how far the model's own prediction forks at each sample
+    #                                 (`diagnosis.forks`), added to the noise in quadrature
 
     @property
     def weights(self) -> np.ndarray:
         """1 / sigma for measured components, 0 for the others."""
         return np.where(self.measured, 1.0 / self.sigma, 0.0)
+
+    @property
+    def tolerance(self) -> np.ndarray:
+        """(n, 6) per sample: the noise and the model's fork added in quadrature."""
+        noise = np.broadcast_to(self.sigma, (len(self.times), 6))
+        return noise if self.fork is None else np.sqrt(noise ** 2 + self.fork ** 2)
 
 
 def rotvecs_relative(R: np.ndarray) -> np.ndarray:
@@ -78,8 +86,9 @@ def observed_series(track: ObservedTrack, rate: float) -> ObservedSeries:
 
 
 def normalised(obs: ObservedSeries, res: np.ndarray) -> np.ndarray:
-    """Residual divided by the noise, measured components only, flattened: what scores and fits use."""
-    return (res[:, obs.measured] / obs.sigma[obs.measured]).ravel()
+    """Residual divided by the noise (and the model's fork where it has one), measured components only,
+    flattened: what scores and fits use."""
+    return (res[:, obs.measured] / obs.tolerance[:, obs.measured]).ravel()
 
 
 # --- the robot's force sensor -------------------------------------------------------------------------------------
@@ -99,14 +108,16 @@ class ForceSeries:
     force: np.ndarray  # (n, 3) N
     sigma: np.ndarray  # (3,) N: the sensor's noise, from the data
     measured: np.ndarray  # (3,) bool
+    fork: np.ndarray | None = None  # (n, 3) N: the model's own fork at each sample (`diagnosis.forks`)
 
     @property
     def tolerance(self) -> np.ndarray:
-        """(n, 3) N per sample: the noise and FORCE_MODEL_ERROR of the force's size, added in quadrature. A
-        simulated contact force is not exact (stiff contacts, jams against an obstacle reach tens of newtons
-        and are sensitive to everything); without this share a force residual would drown the poses."""
+        """(n, 3) N per sample: the noise, FORCE_MODEL_ERROR of the force's size and the model's fork, added in
+        quadrature. A simulated contact force is not exact (stiff contacts, jams against an obstacle reach tens
+        of newtons and are sensitive to everything); without this share a force residual would drown the poses."""
         size = np.linalg.norm(self.force, axis=1, keepdims=True)
-        return np.sqrt(self.sigma[None, :] ** 2 + (FORCE_MODEL_ERROR * size) ** 2)
+        fork = 0.0 if self.fork is None else self.fork ** 2
+        return np.sqrt(self.sigma[None, :] ** 2 + (FORCE_MODEL_ERROR * size) ** 2 + fork)
 
 
 def force_series(observed, rate: float, span: tuple[float, float] | None = None) -> ForceSeries:

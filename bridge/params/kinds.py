@@ -36,7 +36,7 @@ from ..odb.ranges import DISSIPATION, FRICTION, HYDROELASTIC_MODULUS, MASS, Phys
 from ..rollout.rollout import Rollout
 from ..sim.extras import ObjectScale, SurfacePatch, WeldedShape
 from ..sim.shapes import mass_properties
-from ..sim.anisotropy import AnisotropicFriction
+from ..sim.anisotropy import AnisotropicFriction, FrictionField
 from ..sim.friction import combined_friction, pair_coefficients
 from ..sim.support import SupportPressure
 from ..values import Pose
@@ -886,15 +886,16 @@ class Anisotropy(Family):
         surface = support_of(world, odb, target)
         if (a_c == 0.0 and a_s == 0.0) or surface is None:
             return rollout
-
-        def mu(name: str) -> float:
-            set_ = rollout.values.objects.get(name)
-            return set_.friction if set_ is not None and set_.friction is not None else \
-                odb.get(world.objects[name].type).physics.friction
-
-        return rollout.with_extras(AnisotropicFriction(target, float(a_c), float(a_s),
-                                                       combined_friction(mu(target), mu(surface)),
+        mu = combined_friction(_scene_friction(rollout, odb, target), _scene_friction(rollout, odb, surface))
+        return rollout.with_extras(AnisotropicFriction(target, float(a_c), float(a_s), mu,
                                                        surface_top(world, odb, surface)))
+
+
+def _scene_friction(rollout, odb, name: str) -> float:
+    """An object's coefficient as the rollout's scene values have it (the database's where they do not)."""
+    set_ = rollout.values.objects.get(name)
+    return set_.friction if set_ is not None and set_.friction is not None else \
+        odb.get(rollout.world.objects[name].type).physics.friction
 
 
 class _AnisotropyComponent(_Member):
@@ -925,6 +926,56 @@ class AnisoC(_AnisotropyComponent):
 class AnisoS(_AnisotropyComponent):
     name, component = "aniso_s", "a_s"
     doc = "anisotropic friction on the support: a sin 2 theta (see aniso_c)"
+
+
+class Field(Family):
+    """The object's friction on its support varying over the surface (`bridge.sim.anisotropy.FrictionField`): the
+    pair's coefficient (as the scene values have it) at the object's start, changing linearly by (g_x, g_y) per
+    metre; a new scene per value."""
+
+    name = "friction_field"
+    members = {"g_x": "field_gx", "g_y": "field_gy"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        g_x, g_y = values.get("g_x", 0.0), values.get("g_y", 0.0)
+        world = rollout.world
+        surface = support_of(world, odb, target)
+        if (g_x == 0.0 and g_y == 0.0) or surface is None:
+            return rollout
+        mu = combined_friction(_scene_friction(rollout, odb, target), _scene_friction(rollout, odb, surface))
+        start = world.objects[target].pose.xyz
+        return rollout.with_extras(FrictionField(target, float(g_x), float(g_y), (float(start[0]), float(start[1])),
+                                                 mu, surface_top(world, odb, surface)))
+
+
+class _FieldComponent(_Member):
+    null_is_world = True
+    family, targets, unit = Field, "free objects", "1/m"
+    physical = PhysicalRange(-9.0, 9.0, "1/m", "per metre: beyond it the coefficient would halve or vanish within "
+                             "the few centimetres an object is pushed")
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return -8.0, 8.0
+
+    def step(self, world, odb, target):
+        return 1.0
+
+    def negligible(self, world, odb, target):
+        return 0.6  # 3 % over 5 cm
+
+
+class FieldGx(_FieldComponent):
+    name, component = "field_gx", "g_x"
+    doc = "friction varying over the support: the pair coefficient's relative change per metre along world x"
+
+
+class FieldGy(_FieldComponent):
+    name, component = "field_gy", "g_y"
+    doc = "friction varying over the support: the pair coefficient's relative change per metre along world y"
 
 
 class ObjectFrame(Family):
@@ -1043,7 +1094,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     ObstacleX(), ObstacleY(),
     PatchCx(), PatchCy(), PatchHalf(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
-    AnisoC(), AnisoS(),
+    AnisoC(), AnisoS(), FieldGx(), FieldGy(),
     SlidingFriction(), RobotFriction(),
     FrameX(), FrameY(), FrameYaw(), ObjectScaleKind(),
 )}

@@ -26,6 +26,12 @@ loop in a discrete plant (the state output does not depend on the inputs of the 
 applied spatial force input, so several force sources meet in an `ExternallyAppliedSpatialForceMultiplexer`.
 The system's own plant context holds the default parameters: the load is the object database's mass (a fitted
 `mass` does not change it).
+
+The same force carries a friction *field* (`FrictionField`): a pair coefficient that changes over the surface,
+mu (1 + g . (p - p0)) at a footprint point's world position p, p0 where the object started (a worn, waxed or
+dusty region whose edge the object crosses; the square patch of `sim/extras.SurfacePatch` is a sharp special
+case). Each point adds (factor - 1) times Drake's isotropic force; neglected as above, and the field is the
+first-order term only (a sharp edge is smoothed into a slope).
 """
 from __future__ import annotations
 
@@ -44,6 +50,7 @@ G = 9.81
 SLIP_SPEED = 0.005  # m/s: below this the added force fades (regularisation; see the stability note above)
 REACH = 0.001  # m: the object's bottom within this of the support's top is resting on it
 MAX_ANISOTROPY = 0.9  # |a| < 1: a coefficient across the grain must stay positive
+MIN_FIELD = 0.1  # the field's coefficient never falls below this share of the pair's (it stays positive)
 
 
 @dataclass(frozen=True)
@@ -76,6 +83,42 @@ class AnisotropicFriction:
     def add_to(self, plant, world, odb, config) -> None:
         self.check(world, odb)  # the force system is added with the diagram's sources (`scene._build`)
 
+    def matrix(self) -> np.ndarray:
+        return self.mu * np.array([[1 + self.a_c, self.a_s], [self.a_s, 1 - self.a_c]])
+
+    def factor(self, xy: np.ndarray) -> np.ndarray:
+        return np.ones(len(xy))
+
+
+@dataclass(frozen=True)
+class FrictionField:
+    """A scene extra: object `object`'s pair coefficient `mu` on its support (top at `top_z`) varies over the
+    surface as mu (1 + g . (p - origin)), g = (`g_x`, `g_y`) per metre, p world (x, y) (module docstring)."""
+
+    object: str
+    g_x: float
+    g_y: float
+    origin: tuple[float, float]  # m, world: where the coefficient is `mu` (the object's start)
+    mu: float
+    top_z: float
+
+    def check(self, world, odb) -> None:
+        if self.object not in world.objects or odb.get(world.objects[self.object].type).fixed:
+            raise SceneError(f"friction field: no free object {self.object!r} in world {world.name!r}")
+        if not (self.mu > 0 and all(map(math.isfinite, (self.g_x, self.g_y, *self.origin, self.top_z)))):
+            raise SceneError(f"friction field on {self.object!r}: needs finite values and a positive coefficient "
+                             f"(got mu {self.mu!r}, g ({self.g_x!r}, {self.g_y!r}))")
+
+    def add_to(self, plant, world, odb, config) -> None:
+        self.check(world, odb)
+
+    def matrix(self) -> np.ndarray:
+        return self.mu * np.eye(2)
+
+    def factor(self, xy: np.ndarray) -> np.ndarray:
+        """The coefficient over `mu` at world points `xy` (n, 2)."""
+        return np.maximum(MIN_FIELD, 1.0 + (np.asarray(xy) - np.asarray(self.origin)) @ np.array([self.g_x, self.g_y]))
+
 
 def footprint_points(polygon: np.ndarray, levels: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """(points (n, 2), weights summing to 1): a quadrature of a uniform polygon, the centroids of its fan
@@ -94,27 +137,31 @@ def footprint_points(polygon: np.ndarray, levels: int = 2) -> tuple[np.ndarray, 
 
 
 def slip_force(M: np.ndarray, mu: float, load: np.ndarray, velocity: np.ndarray,
-               slip_speed: float = SLIP_SPEED) -> np.ndarray:
+               slip_speed: float = SLIP_SPEED, factor: np.ndarray | None = None) -> np.ndarray:
     """The force (n, 2) to add at points sliding at `velocity` (n, 2) under `load` (n,) normal force each:
-    the elliptic friction -N M^2 v / |M v| less Drake's isotropic -N mu v / |v|, both regularised."""
+    the elliptic friction -N M^2 v / |M v| (times `factor` per point, a field's) less Drake's isotropic
+    -N mu v / |v|, both regularised."""
     Mv = velocity @ M  # M is symmetric
     elliptic = (Mv @ M) / np.sqrt(np.sum(Mv ** 2, axis=1) + (mu * slip_speed) ** 2)[:, None]
+    if factor is not None:
+        elliptic = elliptic * np.asarray(factor)[:, None]
     isotropic = mu * velocity / np.sqrt(np.sum(velocity ** 2, axis=1) + slip_speed ** 2)[:, None]
     return -load[:, None] * (elliptic - isotropic)
 
 
 class SlipFriction(LeafSystem):
-    """Outputs the anisotropic friction's added spatial force on each object that has one, from the plant's
-    state (positions and velocities) at the step's start."""
+    """Outputs the anisotropic friction's and the friction fields' added spatial force on each object that has
+    one, from the plant's state (positions and velocities) at the step's start."""
 
-    def __init__(self, plant, entries: list[tuple[AnisotropicFriction, object, np.ndarray, np.ndarray, float]]):
+    def __init__(self, plant, entries: list[tuple[AnisotropicFriction | FrictionField, object, np.ndarray,
+                                                  np.ndarray, float]]):
         """`entries`: (the extra, its body, footprint points (n, 2) body frame, weights, the bottom's z in the
         body frame)."""
         super().__init__()
         self._plant = plant
         self._entries = []
         for extra, body, points, weights, z0 in entries:
-            M = extra.mu * np.array([[1 + extra.a_c, extra.a_s], [extra.a_s, 1 - extra.a_c]])
+            M = extra.matrix()
             p_B = np.column_stack([points, np.full(len(points), z0)])
             self._entries.append((extra, body, p_B, weights, M))
         self._state = self.DeclareVectorInputPort("plant_state", plant.num_multibody_states()).get_index()
@@ -136,7 +183,7 @@ class SlipFriction(LeafSystem):
             w, v = V.rotational(), V.translational()
             v_points = v[None, :] + np.cross(w[None, :], r)
             load = body.get_mass(pc) * G * weights
-            f2 = slip_force(M, extra.mu, load, v_points[:, :2])
+            f2 = slip_force(M, extra.mu, load, v_points[:, :2], factor=extra.factor(p[None, :2] + r[:, :2]))
             f = np.column_stack([f2, np.zeros(len(f2))])
             applied = ExternallyAppliedSpatialForce()
             applied.body_index = body.index()

@@ -415,11 +415,12 @@ def add_robot(plant, world: WorldState, odb: ObjectDatabase):
 
 def _slip_friction(builder, plant, world: WorldState, odb: ObjectDatabase, config: SimConfig, bodies: dict,
                    extras: Sequence):
-    """The system adding anisotropic friction (`sim/anisotropy.py`) for the extras that ask for it, or None."""
-    from .anisotropy import AnisotropicFriction, SlipFriction, footprint_points
+    """The system adding anisotropic friction and friction fields (`sim/anisotropy.py`) for the extras that ask
+    for them, or None."""
+    from .anisotropy import AnisotropicFriction, FrictionField, SlipFriction, footprint_points
     from .support import bottom_polygon
 
-    wanted = [e for e in extras if isinstance(e, AnisotropicFriction)]
+    wanted = [e for e in extras if isinstance(e, (AnisotropicFriction, FrictionField))]
     if not wanted:
         return None
     entries = []

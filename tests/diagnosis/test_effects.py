@@ -14,7 +14,8 @@ from bridge.rollout import Rollout
 from bridge.sim.shapes import mass_properties
 
 NAMES = ["none", "friction", "mass", "com_offset", "surface_tilt", "friction_patch", "latency", "pusher_offset",
-         "hidden_obstacle", "pressure_distribution", "anisotropic_friction", "object_frame", "object_scale"]
+         "hidden_obstacle", "pressure_distribution", "anisotropic_friction", "friction_field", "object_frame",
+         "object_scale"]
 
 
 @pytest.fixture(scope="module")

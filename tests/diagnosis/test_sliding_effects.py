@@ -1,8 +1,9 @@
 """The diagnosis names effects of real planar sliding it was not given (real Drake, generated recordings of the
 proof's steel block): a support pressure (the block resting on a small disc, a mechanism other than the model's
 scaled footprint: every push turns more than simulated, where an off-centre mass, tried beside it, turns some
-more and some less) and a grain in the surface (the block drifts across each push towards the slippery
-direction, where a tilt, tried beside it, drifts one way whatever the push)."""
+more and some less), a grain in the surface (the block drifts across each push towards the slippery
+direction, where a tilt, tried beside it, drifts one way whatever the push) and friction that changes over the
+surface (a field, and a sharp-edged sheet of another material that the field reads as falling towards it)."""
 import math
 
 import pytest
@@ -43,3 +44,30 @@ def test_a_grain_in_the_surface_is_named_anisotropic_friction_and_recovered(odb,
     found = ident.winner.params
     assert math.hypot(*(found[k] - truth.params[k] for k in ("aniso_c[block]", "aniso_s[block]"))) < 0.1  # of 0.3
     assert held_out < 0.2
+
+
+@pytest.mark.slow
+def test_friction_that_changes_over_the_surface_is_named_friction_field_and_recovered(odb, tmp_path):
+    truth, ident, held_out = diagnose(Case("planar", "friction_field", "medium", 2),
+                                      ("surface_tilt", "com_offset", "friction_field"), odb, tmp_path)
+    assert ident.verdict == "friction_field", [(s.effect, s.rms) for s in ident.ranked]
+    found = ident.winner.params
+    g = math.hypot(*(truth.params[k] for k in ("field_gx[block]", "field_gy[block]")))
+    assert math.hypot(*(found[k] - truth.params[k] for k in ("field_gx[block]", "field_gy[block]"))) < 0.35 * g
+    assert held_out < 0.5
+
+
+@pytest.mark.slow
+def test_a_slippery_half_plane_the_block_crosses_reads_as_a_field_falling_towards_it(odb, tmp_path):
+    """Another mechanism than the model's: a sheet of another material (a low pair coefficient) over a region
+    beside and ahead of the block's start, with a sharp edge. Beside an off-centre weight, the first-order field
+    predicts the recordings it was not fitted on better than friction alone, its coefficient falling towards
+    the sheet."""
+    truth, ident, _ = diagnose(Case("planar", "friction_patch", "large", 1), ("com_offset", "friction_field"),
+                               odb, tmp_path)
+    x0, x1, y0, y1 = truth.extra["region"]
+    assert truth.extra["shape"] == "half" and truth.params["pair_mu_inside"] < 0.2  # slippery: 0.14 of 0.25
+    assert ident.verdict == "friction_field", [(s.effect, s.rms) for s in ident.ranked]
+    g = (ident.winner.params["field_gx[block]"], ident.winner.params["field_gy[block]"])
+    towards = ((x0 + x1) / 2, (y0 + y1) / 2)  # from the block's start at the origin
+    assert g[0] * towards[0] + g[1] * towards[1] < 0

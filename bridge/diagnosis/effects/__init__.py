@@ -15,6 +15,7 @@ from .anisotropic_friction import AnisotropicFrictionEffect
 from .base import Effect, Evidence, Recovery, Truth, pname
 from .com_offset import ComOffset
 from .friction import Friction
+from .friction_field import FrictionFieldEffect
 from .friction_patch import FrictionPatch
 from .hidden_obstacle import HiddenObstacle
 from .latency import Latency
@@ -38,6 +39,7 @@ EFFECTS: dict[str, Effect] = {
     "hidden_obstacle": HiddenObstacle(),
     "pressure_distribution": PressureDistribution(),
     "anisotropic_friction": AnisotropicFrictionEffect(),
+    "friction_field": FrictionFieldEffect(),
     "object_frame": ObjectFrameEffect(),
     "object_scale": ObjectScaleEffect(),
 }

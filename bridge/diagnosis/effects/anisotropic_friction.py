@@ -23,6 +23,13 @@ ANISOTROPY = (0.15, 0.3, 0.45)  # the proof's a (small, medium, large)
 SEED = 0.2  # the seed's a, in the direction the across-push residuals point to
 
 
+def database_pair(scene, odb, world) -> tuple[float, float]:
+    """(the object's pair coefficient with its surface in the object database, the surface's top z): what a proof
+    case's force system adds to."""
+    mu = combined_friction(odb.get(scene.object_type).physics.friction, odb.get(scene.surface_type).physics.friction)
+    return mu, surface_top(world, odb, support_of(world, odb, scene.object))
+
+
 def _harmonic_fit(angles: np.ndarray, values: np.ndarray, k: int) -> tuple[np.ndarray, float]:
     """Least squares of values ~ c cos(k phi) + s sin(k phi): (c, s) and the share of the sum of squares explained."""
     A = np.column_stack([np.cos(k * angles), np.sin(k * angles)])
@@ -84,11 +91,8 @@ class AnisotropicFrictionEffect(Effect):
                      "a coefficient ellipse on the surface", {"a": a, "theta": theta})
 
     def conceal(self, truth, scene, odb, rollout):
-        world = rollout.world
-        surface = support_of(world, odb, scene.object)
-        mu = combined_friction(odb.get(scene.object_type).physics.friction, odb.get(scene.surface_type).physics.friction)
         c, s = (truth.params[pname(k, scene.object)] for k in ("aniso_c", "aniso_s"))
-        return rollout.with_extras(AnisotropicFriction(scene.object, c, s, mu, surface_top(world, odb, surface))), \
+        return rollout.with_extras(AnisotropicFriction(scene.object, c, s, *database_pair(scene, odb, rollout.world))), \
             rollout.telemetry
 
     def recovered(self, truth, found, model, world, odb):
