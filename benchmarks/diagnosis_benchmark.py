@@ -63,6 +63,8 @@ def run_shape(shape: str, files: list[Path], odb, workers: int, time_step: float
             "time_step_s": (data.get("time_step") or {}).get("time_step_s"),
             "time_step_share": (data.get("time_step") or {}).get("share"),
             "time_scales": (data.get("time_scales") or {}).get("taken"),
+            "forked": (data.get("forks") or {}).get("forked"),
+            "params": (data.get("winner") or {}).get("params") if data["verdict"] != "none" else {},
             "verdict": data["verdict"], "e_before": data["error"]["before"]["e"], "e_after": data["error"]["after"]["e"],
             "held_out_e_before": data["error"].get("held_out_before", {}).get("e"),
             "held_out_e_after": data["error"].get("held_out_after", {}).get("e")}

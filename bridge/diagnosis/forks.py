@@ -10,14 +10,17 @@ The measure: every observed object is replayed shifted by +-PLACEMENT along each
 `frame_y`: the object's geometry moved under its recorded frame, so the rod meets it elsewhere and nothing else
 changes). For each axis the response d+ (shifted +) and d- (shifted -) of the residual splits into an odd part
 (d+ - d-) / 2, which a smooth model turns linearly and which `pusher_offset` and `object_frame` fit, and an even
-part (d+ + d-) / 2, which stays near zero while the outcome is smooth and is half the jump where a shift crosses
-a fork. The even parts of both axes, added in quadrature, are the fork: the model's own uncertainty at each
-sample, added to the noise in quadrature wherever the residual is scored (`residuals.ObservedSeries.fork`,
-`ForceSeries.fork`). A forked push then counts as a residual of about two tolerances where the model and the
-world took different branches, and still as much as any other push where it did not fork.
+part (d+ + d-) / 2, half the jump where a shift crosses a fork. A smooth model's even part is second order,
+about PLACEMENT^2 / L (hundredths of a millimetre on objects of centimetres), so a sample has forked where the
+even parts of both axes, in quadrature, move the object by more than the shift itself; there they are the fork:
+the model's own uncertainty at that sample, added to the noise in quadrature wherever the residual is scored
+(`residuals.ObservedSeries.fork`, `ForceSeries.fork` at the same times). A forked push then counts as a residual
+of about two tolerances where the model and the world took different branches, and as much as any other push
+where it did not fork.
 
-Measured on the independent rect1 worlds (mass, tilt): the corner pushes fork by 23-107 noise floors (RMS) at
-1 mm, the others by 0.2-2; the smooth pushes' odd parts are 5-8 floors (what the fits may use).
+Measured: on the independent rect1 worlds (mass, tilt) the corner pushes' even parts reach 10-40 mm (23-107
+noise floors RMS), the others' stay well below the shift; on the real ellip3 pushes they stay below 0.2 mm, which
+their micrometre motion-capture noise alone would read as 10-70 noise floors: not a fork.
 """
 from __future__ import annotations
 
@@ -81,13 +84,16 @@ def measure_forks(runner: Runner, indices: Sequence[int], placement: float = PLA
         if base[i].failed or any(a.failed or b.failed for a, b in runs):
             failed.append(p.name)
             continue
-        series = tuple(replace(s, fork=_even(base[i].residuals[s.object],
-                                             [(a.residuals[s.object], b.residuals[s.object]) for a, b in runs]))
-                       for s in p.series)
+        even = [_even(base[i].residuals[s.object], [(a.residuals[s.object], b.residuals[s.object]) for a, b in runs])
+                for s in p.series]
+        forked = [np.linalg.norm(e[:, :3], axis=1) > placement for e in even]
+        series = tuple(replace(s, fork=np.where(f[:, None], e, 0.0)) for s, e, f in zip(p.series, even, forked))
         force = p.force
         if force is not None:
-            force = replace(force, fork=_even(base[i].force_residual,
-                                              [(a.force_residual, b.force_residual) for a, b in runs]))
+            at = np.any([np.interp(force.times, s.times, f.astype(float)) >= 0.5 for s, f in zip(p.series, forked)],
+                        axis=0)
+            even_force = _even(base[i].force_residual, [(a.force_residual, b.force_residual) for a, b in runs])
+            force = replace(force, fork=np.where(at[:, None], even_force, 0.0))
         ratio = np.concatenate([((s.fork[:, s.measured] / s.sigma[s.measured]) ** 2).ravel() for s in series])
         sizes[p.name] = float(np.sqrt(np.mean(ratio)))
         runner.prepared[i] = replace(p, series=series, force=force)

@@ -48,8 +48,11 @@ def test_a_grain_in_the_surface_is_named_anisotropic_friction_and_recovered(odb,
 
 @pytest.mark.slow
 def test_friction_that_changes_over_the_surface_is_named_friction_field_and_recovered(odb, tmp_path):
+    """Beside a tilt (a force one way wherever the block is). An off-centre weight is left out: over three
+    short pushes a gradient shifts the centre of friction as a weight does, and the two are not told apart
+    (on this case `com_offset` fits to 1.1 noise floors); they part as the block travels and turns."""
     truth, ident, held_out = diagnose(Case("planar", "friction_field", "medium", 2),
-                                      ("surface_tilt", "com_offset", "friction_field"), odb, tmp_path)
+                                      ("surface_tilt", "friction_field"), odb, tmp_path)
     assert ident.verdict == "friction_field", [(s.effect, s.rms) for s in ident.ranked]
     found = ident.winner.params
     g = math.hypot(*(truth.params[k] for k in ("field_gx[block]", "field_gy[block]")))

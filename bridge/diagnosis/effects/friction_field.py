@@ -8,7 +8,9 @@ enter smoothly, so no localisation has to say where a region begins: a Gauss-New
 direction. A square patch (`friction_patch`) is the sharp, local case; a field is what a half-plane or a strip
 looks like to an object pushed a few centimetres across its edge, and what a real sheet's wear looks like.
 Its signature: the object turns towards the rougher side and slows as it goes, more the further it travels, in
-one world direction in every recording.
+one world direction in every recording. Over a few short pushes a gradient moves the centre of friction as an
+off-centre weight moves the centre of mass, and the two are hard to tell apart; they part as the object travels
+(the field changes along the path) and turns (the weight turns with the body, the field stays in the world).
 """
 from __future__ import annotations
 
