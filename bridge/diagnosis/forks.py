@@ -11,15 +11,16 @@ The measure: every observed object is replayed shifted by +-PLACEMENT along each
 changes). For each axis the response d+ (shifted +) and d- (shifted -) of the residual splits into an odd part
 (d+ - d-) / 2, which a smooth model turns linearly and which `pusher_offset` and `object_frame` fit, and an even
 part (d+ + d-) / 2, half the jump where a shift crosses a fork. A smooth model's even part is second order,
-about PLACEMENT^2 / L (hundredths of a millimetre on objects of centimetres), so a sample has forked where the
-even parts of both axes, in quadrature, move the object by more than the shift itself; there they are the fork:
+about PLACEMENT^2 / L (hundredths of a millimetre on objects of centimetres; with the simulator's own
+discretisation, tenths at most), so a sample has forked where the even parts of both axes, in quadrature, move
+the object by more than the shift itself; there they are the fork:
 the model's own uncertainty at that sample, added to the noise in quadrature wherever the residual is scored
 (`residuals.ObservedSeries.fork`, `ForceSeries.fork` at the same times). A forked push then counts as a residual
 of about two tolerances where the model and the world took different branches, and as much as any other push
 where it did not fork.
 
-Measured: on the independent rect1 worlds (mass, tilt) the corner pushes' even parts reach 10-40 mm (23-107
-noise floors RMS), the others' stay well below the shift; on the real ellip3 pushes they stay below 0.2 mm, which
+Measured: on the independent rect1 worlds (tilt, patch) the corner pushes' even parts reach 5-15 mm RMS (32-49
+noise floors RMS), the others' stay below the shift; on the real ellip3 pushes they stay below 0.2 mm, which
 their micrometre motion-capture noise alone would read as 10-70 noise floors: not a fork.
 """
 from __future__ import annotations
