@@ -11,7 +11,7 @@ from bridge.diagnosis.effects import Evidence, get_effect  # noqa: E402
 from bridge.errors import SceneError  # noqa: E402
 from bridge.params.model import Setting, apply_model  # noqa: E402
 from bridge.rollout.rollout import run_rollout  # noqa: E402
-from bridge.sim.anisotropy import AnisotropicFriction, footprint_points, slip_force  # noqa: E402
+from bridge.sim.anisotropy import AnisotropicFriction, FrictionField, footprint_points, slip_force  # noqa: E402
 from bridge.sim.support import gyration_radius  # noqa: E402
 
 MU = 0.25
@@ -85,6 +85,13 @@ def test_bad_anisotropy_names_the_object(push, odb):
         run_rollout(push.with_extras(AnisotropicFriction("block", 0.8, 0.6, MU, 0.0)), odb)
     with pytest.raises(SceneError, match="no free object 'surface'"):
         run_rollout(push.with_extras(AnisotropicFriction("surface", 0.1, 0.0, MU, 0.0)), odb)
+
+
+def test_a_bad_friction_field_names_the_object(push, odb):
+    with pytest.raises(SceneError, match="friction field on 'block': needs finite values and a positive coefficient"):
+        run_rollout(push.with_extras(FrictionField("block", float("nan"), 0.0, (0.0, 0.0), MU, 0.0)), odb)
+    with pytest.raises(SceneError, match="friction field: no free object 'surface'"):
+        run_rollout(push.with_extras(FrictionField("surface", 1.0, 0.0, (0.0, 0.0), MU, 0.0)), odb)
 
 
 def test_the_seed_points_along_the_grain_the_residuals_suggest(push, odb):
