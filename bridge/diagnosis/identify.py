@@ -111,6 +111,7 @@ class Scored:
     cv: Prediction | None = None  # every recording predicted by the model fitted without it (`crossval`)
     cv_share: float | None = None  # of the floor's cross-validated excess chi^2, the share this model removes
     contradicted: str | None = None  # why direct evidence (the loader's, before any simulation) rules it out
+    measured: bool = False  # its own parameters held at what the recordings measure before any simulation
 
     @property
     def rms(self) -> float:
@@ -132,6 +133,8 @@ class Scored:
             out["held_out_rms_sigma"] = round(math.sqrt(self.held_out_chi2 / self.held_out_n), 3)
         if self.derived:
             out["derived"] = {k: float(f"{v:.4g}") for k, v in self.derived.items()}
+        if self.measured:
+            out["measured"] = True
         if self.at_bound:
             out["at_bound"] = {k: float(f"{v:.6g}") for k, v in self.at_bound.items()}
         if self.cv is not None and self.cv.n:
@@ -236,12 +239,13 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         notes.append(frame.sentence())
         say(notes[-1])
     gaps = loader.contact_fit()
-    measured = _measured(loader)
+    measured = _measured(loader, world)
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
                         loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
                         loader.offset_estimate(), loader.offset_evident,
                         frame.values() if frame is not None and frame.evident else None,
-                        gaps.inflation if gaps is not None and gaps.inflation_evident else None)
+                        gaps.inflation if gaps is not None and gaps.inflation_evident else None,
+                        gaps.latency if gaps is not None and gaps.latency_evident else None)
     none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
@@ -328,6 +332,9 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
 
     order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
     full = order[:options.max_full_fits]
+    # an effect the recordings measure before any simulation (`_measured`) is always fitted: the measurement, not
+    # the screen, is its evidence, and in a world that differs from the model elsewhere it may screen low
+    full += [c for c in order[options.max_full_fits:] if _all_measured(c, world, odb, measured)]
     step[1] = step[0] + len(full)  # what is left: the full fits
     # 4. full fits, each effect together with the friction coefficients, from the screened point
     fitted: list[Scored] = _held_out(runner, held_out, [none, friction_scored])
@@ -457,18 +464,30 @@ def _space(friction: Sequence[Parameter], effect, target: str, world, odb,
     return ParameterSet(tuple(friction) + own, f"{effect.name} on {target}")
 
 
-def _measured(loader: LoaderEvidence) -> dict[str, tuple[float, float]]:
+def _measured(loader: LoaderEvidence, world=None) -> dict[str, tuple[float, float]]:
     """Effect parameters the recordings measure before any simulation, by name: (value, 1 sigma). The rod offset
     the contact gaps make evident (`loader.ContactFit`: where the rod sat on the outline while it pushed, from every
     recording) is such a measurement: a fit through a simulation of a world that differs from the model beneath
     the offset moves it to soak up the difference (independent MuJoCo worlds: (+0.8, -4.0) mm measured and true,
     (+3.8, -8.3) mm fitted; (-3.0, +2.7) measured, (-3.5, +3.1) fitted and refused as 6 sigma off the
-    measurement), so `pusher_offset` is the measured offset with the friction coefficients fitted to it."""
+    measurement), so `pusher_offset` is the measured offset with the friction coefficients fitted to it. So is the
+    latency the gaps of recordings pushed at different speeds make evident (`ContactFit.latency`)."""
     fit = loader.contact_fit()
-    if fit is None or not fit.offset_evident:
+    if fit is None:
         return {}
-    sd = np.sqrt(np.maximum(np.diag(np.asarray(fit.offset_cov, dtype=float)), 0.0))
-    return {pname("joint_offset", j): (float(v), float(s)) for j, v, s in zip(fit.joints, fit.offset, sd)}
+    out = {}
+    if fit.offset_evident:
+        sd = np.sqrt(np.maximum(np.diag(np.asarray(fit.offset_cov, dtype=float)), 0.0))
+        out.update({pname("joint_offset", j): (float(v), float(s)) for j, v, s in zip(fit.joints, fit.offset, sd)})
+    if fit.latency_evident and world is not None and world.robot is not None:
+        out[pname("latency", world.robot.name)] = (float(fit.latency), float(fit.latency_sd))
+    return out
+
+
+def _all_measured(c: Candidate, world, odb, measured: dict[str, tuple[float, float]]) -> bool:
+    """Whether every parameter of candidate `c` is held at a measurement (`_measured`)."""
+    own = get_effect(c.effect).parameters(world, odb, c.target)
+    return bool(own) and all(p.name in measured for p in own)
 
 
 def _model(space: ParameterSet, x: np.ndarray) -> Model:
@@ -498,7 +517,8 @@ def _from_fit(effect: str, target: str | None, result: FitResult, world, odb) ->
     return Scored(effect, target, params, {p.name: std[p.name] for p in own}, result.model(),
                   result.space.dim + sum(1 for p in own if not p.free),
                   result.chi2, result.n, error=pose_error_of(result.runs), derived=derived,
-                  evaluations=result.evaluations, model_std=std, at_bound=result.at_bound())
+                  evaluations=result.evaluations, model_std=std, at_bound=result.at_bound(),
+                  measured=bool(own) and effect != "friction" and not any(p.free for p in own))
 
 
 def _score(models: Sequence[Scored], tau: float) -> list[Scored]:
@@ -536,7 +556,7 @@ def _fit_reason(s: Scored, none: Scored, friction: Scored | None, world, odb) ->
         return f"{s.effect}'s parameters ({_fmt(s.params)}) are too small to matter physically"
     base = none if s.effect == "friction" or friction is None else friction
     gain = (base.chi2 - s.chi2) / max(base.chi2 - base.n, 1e-12)
-    if gain < (MIN_GAIN if base.rms >= NOISE_RMS else NEAR_NOISE_GAIN):
+    if gain < (0.0 if s.measured else MIN_GAIN if base.rms >= NOISE_RMS else NEAR_NOISE_GAIN):
         return f"{s.effect} removes only {100 * gain:.0f} % of the residual above the noise that {base.effect} leaves"
     return None
 
@@ -547,7 +567,7 @@ def _checked_against(s: Scored, loader: LoaderEvidence, frame: FrameFit | None =
     offset that the rod-to-outline gaps while pushing do not show (`ContactFit`: they measure the offset without
     simulating, so a fit that puts the rod elsewhere is soaking up something else), beyond NOISE_SIGMAS of the
     gaps' uncertainty (Mahalanobis), the same rule that makes the gaps' own offset evident; likewise a fitted
-    size the gaps do not show (`_scale_check`) and a fitted recorded frame that the pushing samples do not show
+    latency (`_latency_check`) or size (`_scale_check`) the gaps do not show and a fitted recorded frame that the pushing samples do not show
     (`outline.FrameFit`, where they pin it: `_frame_check`)."""
     from dataclasses import replace
 
@@ -555,6 +575,9 @@ def _checked_against(s: Scored, loader: LoaderEvidence, frame: FrameFit | None =
         why = _frame_check(s, frame)
         return replace(s, contradicted=why) if why else s
     fit = loader.contact_fit()
+    if s.effect == "latency":
+        why = _latency_check(s, fit)
+        return replace(s, contradicted=why) if why else s
     if s.effect == "object_scale":
         why = _scale_check(s, fit, None if world is None else outline_radius(world, odb, s.target))
         return replace(s, contradicted=why) if why else s
@@ -570,6 +593,22 @@ def _checked_against(s: Scored, loader: LoaderEvidence, frame: FrameFit | None =
         f"pusher_offset's fitted rod offset ({1e3 * fitted[0]:+.1f}, {1e3 * fitted[1]:+.1f}) mm is not what the "
         f"rod-to-outline gaps while pushing show ({1e3 * fit.offset[0]:+.1f}, {1e3 * fit.offset[1]:+.1f}) mm, "
         f"{sigmas:.0f} sigma apart: it soaks up something else"))
+
+
+def _latency_check(s: Scored, gaps: ContactFit | None) -> str | None:
+    """Why the contact gaps rule out `s`'s fitted latency (None: they do not, or cannot tell). Recordings pushed at
+    different speeds measure the latency directly (`ContactFit.latency`: the recorded rod leads the real one by
+    tau x its speed); a fitted latency off that by more than NOISE_SIGMAS of its uncertainty, and by more than
+    moves the rod NEGLIGIBLE at the recordings' typical speed, soaks up something else."""
+    if gaps is None or gaps.latency is None or gaps.latency_sd is None or not gaps.speed:
+        return None
+    fitted = next(iter(s.params.values()), 0.0)
+    off = abs(fitted - gaps.latency)
+    if off <= NOISE_SIGMAS * gaps.latency_sd or off * gaps.speed <= NEGLIGIBLE:
+        return None
+    return (f"latency's fitted {1e3 * fitted:+.0f} ms is not what the rod-to-outline gaps of recordings pushed at "
+            f"different speeds show ({1e3 * gaps.latency:+.0f} +- {1e3 * gaps.latency_sd:.0f} ms): it soaks up "
+            "something else")
 
 
 def _scale_check(s: Scored, gaps: ContactFit | None, radius: float | None) -> str | None:
@@ -634,11 +673,11 @@ def _cv_reason(s: Scored, floor: Scored) -> str | None:
         return f"{s.effect} was not cross-validated (its fit is not worth its parameters against {floor.effect})"
     if floor.cv.excess() <= 0.0:
         return f"{floor.effect} already predicts every recording it was not fitted on to the noise floor"
-    share = s.cv.compare(floor.cv)
-    if share < CV_GAIN:
+    share, needed = s.cv.compare(floor.cv), (0.0 if s.measured else CV_GAIN)
+    if share < needed:
         return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
-                f"fitted on (cross-validated, the geometric mean over the recordings; at least "
-                f"{100 * CV_GAIN:.0f} % needed)")
+                f"fitted on (cross-validated, the geometric mean over the recordings; "
+                + (f"at least {100 * needed:.0f} % needed)" if needed else "a measured effect must not predict worse)"))
     return None
 
 
@@ -665,7 +704,12 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
       chi^2 above the noise floor (NEAR_NOISE_GAIN when that model is already within NOISE_RMS of the floor);
     - cross-validated (`crossval`: every recording predicted by the model fitted without it), it removes at
       least CV_GAIN of the chi^2 above the noise that the floor leaves on those predictions (`compare`: the
-      geometric mean of the per-recording ratios, so every recording weighs alike).
+      geometric mean of the per-recording ratios, so every recording weighs alike);
+    - an effect whose parameters the recordings measure before any simulation (`Scored.measured`: a rod offset,
+      a latency from the contact gaps, `_measured`) is evidenced by that measurement; of the simulation it needs
+      only not to predict worse (both gains above zero instead of MIN_GAIN and CV_GAIN): where the world differs
+      from the model in ways no effect names, that difference may dwarf what the effect changes (a 60 ms
+      latency in a MuJoCo world: 12 sigma in the gaps, 8.5 -> 8.1 noise floors in the replays).
     The verdict is the accepted effect that removes the most, else the floor. `friction` is
     accepted over `none` by the same rules.
     """

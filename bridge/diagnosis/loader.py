@@ -44,7 +44,14 @@ class ContactFit:
     recorded rod (true = recorded + D, m, in the joints' x-y order) and an inflation s of the outline (m, > 0:
     the real object, or rod, is larger than modelled), from gap_r = -n_r . D + s over the recordings (least
     squares); their 1-sigma from the fit's leftover scatter (at least the typical scatter within a push); the gaps'
-    RMS before and after."""
+    RMS before and after.
+
+    With a latency tau (s, the `latency` kind's sign: the real rod moved tau later than recorded, so the recorded
+    one leads it by tau x its velocity) every gap also falls by tau u_r, u_r the rod's speed into the object while
+    it pushed (`StartClearance.contact_speed`): recordings pushed at different speeds measure tau, before any
+    simulation and whatever the contact physics. `latency`/`latency_sd` come from gap_r = -n_r . D + s - tau u_r
+    (five recordings or more); D and s are taken from that fit only where the latency is evident
+    (`latency_evident`), from the three-term fit otherwise."""
 
     joints: tuple[str, str]
     offset: tuple[float, float]
@@ -54,6 +61,9 @@ class ContactFit:
     rms_before: float
     rms_after: float
     count: int
+    latency: float | None = None
+    latency_sd: float | None = None
+    speed: float | None = None  # m/s: the median over the recordings of |u_r|, the speed a latency shows at
 
     @property
     def offset_size(self) -> float:
@@ -72,11 +82,33 @@ class ContactFit:
     def inflation_evident(self) -> bool:
         return abs(self.inflation) > NOISE_SIGMAS * self.inflation_sd and abs(self.inflation) > NEGLIGIBLE
 
+    @property
+    def latency_evident(self) -> bool:
+        """tau beyond NOISE_SIGMAS of its uncertainty, and leading the rod by more than NEGLIGIBLE at the
+        recordings' typical speed (a few milliseconds at 10-100 mm/s move nothing a user would act on)."""
+        if self.latency is None or self.latency_sd is None or self.speed is None:
+            return False
+        return abs(self.latency) > NOISE_SIGMAS * self.latency_sd and abs(self.latency) * self.speed > NEGLIGIBLE
+
     def to_json(self) -> dict[str, Any]:
-        return {"offset_m": {j: _g(v) for j, v in zip(self.joints, self.offset)}, "offset_sigmas": _g(self.offset_sigmas()),
-                "offset_evident": self.offset_evident, "inflation_m": _g(self.inflation),
-                "inflation_sd_m": _g(self.inflation_sd), "inflation_evident": self.inflation_evident,
-                "gap_rms_m": [_g(self.rms_before), _g(self.rms_after)], "recordings": self.count}
+        out = {"offset_m": {j: _g(v) for j, v in zip(self.joints, self.offset)},
+               "offset_sigmas": _g(self.offset_sigmas()), "offset_evident": self.offset_evident,
+               "inflation_m": _g(self.inflation), "inflation_sd_m": _g(self.inflation_sd),
+               "inflation_evident": self.inflation_evident,
+               "gap_rms_m": [_g(self.rms_before), _g(self.rms_after)], "recordings": self.count}
+        if self.latency is not None:
+            out.update({"latency_s": _g(self.latency), "latency_sd_s": _g(self.latency_sd),
+                        "latency_evident": self.latency_evident, "speed_m_s": _g(self.speed)})
+        return out
+
+
+def _least_squares(A: np.ndarray, b: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x minimising |A x - b|, its covariance from the leftover scatter (at least `floor`, the typical scatter
+    within a push) and the leftover."""
+    x, *_ = np.linalg.lstsq(A, b, rcond=None)
+    left = b - A @ x
+    var = max(float(left @ left) / max(1, len(b) - A.shape[1]), floor ** 2, 1e-12)
+    return x, var * np.linalg.pinv(A.T @ A), left
 
 
 def _g(value: float) -> float:
@@ -115,22 +147,27 @@ class LoaderEvidence:
         return float(np.linalg.norm(np.mean(units, axis=0))) if units else 0.0
 
     def contact_fit(self) -> ContactFit | None:
-        """The offset and inflation the contact gaps of every recording imply (`ContactFit`); None with fewer than
-        three recordings that pushed (three unknowns)."""
+        """The offset, inflation and latency the contact gaps of every recording imply (`ContactFit`); None with
+        fewer than three recordings that pushed (three unknowns)."""
         rows = [r for r in self.readings if r.start.contact_gap is not None and r.start.contact_normal is not None]
         if len(rows) < 3:
             return None
         A = np.array([[-r.start.contact_normal[0], -r.start.contact_normal[1], 1.0] for r in rows])
         b = np.array([r.start.contact_gap for r in rows])
-        x, *_ = np.linalg.lstsq(A, b, rcond=None)
-        left = b - A @ x
-        spread = float(np.median([r.start.contact_spread or 0.0 for r in rows]))
-        var = max(float(left @ left) / max(1, len(rows) - 3), spread ** 2, 1e-12)
-        cov = var * np.linalg.pinv(A.T @ A)
+        floor = float(np.median([r.start.contact_spread or 0.0 for r in rows]))
+        x, cov, left = _least_squares(A, b, floor)
+        latency = latency_sd = speed = None
+        speeds = [r.start.contact_speed for r in rows]
+        if len(rows) >= 5 and all(u is not None for u in speeds):
+            x4, cov4, left4 = _least_squares(np.column_stack([A, -np.array(speeds)]), b, floor)
+            latency, latency_sd = float(x4[3]), float(math.sqrt(max(cov4[3, 3], 0.0)))
+            speed = float(np.median(np.abs(speeds)))
+            if abs(latency) > NOISE_SIGMAS * latency_sd and abs(latency) * speed > NEGLIGIBLE:
+                x, cov, left = x4, cov4, left4
         return ContactFit(rows[0].start.joints, (float(x[0]), float(x[1])), float(x[2]),
                           ((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
                           float(math.sqrt(max(cov[2, 2], 0.0))), float(np.sqrt(np.mean(b ** 2))),
-                          float(np.sqrt(np.mean(left ** 2))), len(rows))
+                          float(np.sqrt(np.mean(left ** 2))), len(rows), latency, latency_sd, speed)
 
     @property
     def offset_evident(self) -> bool:
@@ -164,6 +201,14 @@ class LoaderEvidence:
                        f"rod was at recorded + ({D[0]:+.1f}, {D[1]:+.1f}) mm ({fit.offset_sigmas():.0f} sigma, from "
                        f"{fit.count} recordings; the gap's RMS falls from {fit.rms_before * 1e3:.1f} to "
                        f"{fit.rms_after * 1e3:.1f} mm once it is removed): evidence of a pusher calibration offset")
+        if fit is not None and fit.latency_evident:
+            lead = "ahead of" if fit.latency > 0 else "behind"
+            out.append(f"while it pushed, the recorded rod sat further {'inside' if fit.latency > 0 else 'outside'} "
+                       f"the object the faster it moved: it ran {abs(fit.latency) * 1e3:.0f} +- "
+                       f"{fit.latency_sd * 1e3:.0f} ms {lead} the real rod "
+                       f"({abs(fit.latency) * fit.speed * 1e3:.1f} mm at the recordings' typical "
+                       f"{fit.speed * 1e3:.0f} mm/s; from {fit.count} recordings at different speeds): evidence of "
+                       "latency between the telemetry and the observations")
         if fit is not None and fit.inflation_evident:
             side = "outside" if fit.inflation > 0 else "inside"
             out.append(f"on every side the rod pushed {abs(fit.inflation) * 1e3:.1f} mm {side} the object's outline "

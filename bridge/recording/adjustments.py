@@ -25,7 +25,9 @@ class StartClearance:
     should be zero: what the outline's mismatch with the real object and the motion capture explain;
     `contact_gap` (m) its median, which should be zero too (a rod that pushes from millimetres away is not
     where the recording says: a calibration offset moves it by -D.n, an outline too small or large by its
-    error), and `contact_normal` the outline's mean outward normal there (world frame)."""
+    error), and `contact_normal` the outline's mean outward normal there (world frame); `contact_speed` (m/s) the
+    rod's median speed into the object there (along -`contact_normal`): a recorded rod that leads or lags the real
+    one by a latency tau sits tau x that speed inside or outside the outline."""
 
     kind: ClassVar[str] = "start_clearance"
     object: str
@@ -38,6 +40,7 @@ class StartClearance:
     joints: tuple[str, str] = ("pusher_x", "pusher_y")
     contact_gap: float | None = None
     contact_normal: tuple[float, float] | None = None
+    contact_speed: float | None = None
 
     @property
     def penetration(self) -> float:
@@ -63,6 +66,7 @@ class StartClearance:
                 "contact_spread_m": None if self.contact_spread is None else _g(self.contact_spread),
                 "contact_gap_m": None if self.contact_gap is None else _g(self.contact_gap),
                 "contact_normal": None if self.contact_normal is None else [_g(v) for v in self.contact_normal],
+                "contact_speed_m_s": None if self.contact_speed is None else _g(self.contact_speed),
                 "joints": list(self.joints)}
 
 

@@ -85,11 +85,11 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
         if clearance < 0:
             shift = (start_clearance - clearance) * normal
             tip = tip + shift
-        gap, spread, gap_normal = _contact_gap(push, outline, frame_yaw)
+        gap, spread, gap_normal, gap_speed = _contact_gap(push, outline, frame_yaw)
         start = StartClearance(shape, float(clearance), (float(normal[0]), float(normal[1])),
                                (float(shift[0]), float(shift[1])), float(start_clearance),
                                float(np.hypot(*(push.tip_xy[0] - push.object_pose[0, :2]))), spread,
-                               contact_gap=gap, contact_normal=gap_normal)
+                               contact_gap=gap, contact_normal=gap_normal, contact_speed=gap_speed)
         if start.moved:
             notes.append(start.text())
     if np.any(np.abs(tip) >= 1.0):
@@ -117,19 +117,20 @@ def push_session(push: PushRecording, odb: ObjectDatabase, *, frame_yaw: float =
 
 
 def _contact_gap(push: PushRecording, outline: np.ndarray, frame_yaw: float
-                 ) -> tuple[float | None, float | None, tuple[float, float] | None]:
+                 ) -> tuple[float | None, float | None, tuple[float, float] | None, float | None]:
     """The rod-to-outline gap (m) while the rod pushes the object, where the true gap is zero: its median, its
-    scatter (1.4826 MAD about the median: what the outline's mismatch and the motion capture leave) and the
-    outline's mean outward normal there (world frame, unit). A constant calibration offset D moves the median by
-    -D.n, not the scatter. Where the push's force is trusted (`_force`), only the samples where the rod touches
-    (`touching`: an object kicked ahead of the rod moves without it). (None, None, None) with fewer than 10 pushed
-    samples."""
+    scatter (1.4826 MAD about the median: what the outline's mismatch and the motion capture leave), the
+    outline's mean outward normal there (world frame, unit) and the rod's median speed into the object along it
+    (m/s). A constant calibration offset D moves the median by -D.n, not the scatter; a latency tau (the recorded
+    rod ahead of the real one by tau x its velocity) by -tau x the speed. Where the push's force is trusted
+    (`_force`), only the samples where the rod touches (`touching`: an object kicked ahead of the rod moves without
+    it). Nones with fewer than 10 pushed samples."""
     pushed = pushed_samples(push)
     if _force(push)[0] is not None and len(pushed):
         touch = pushed[touching(np.hypot(push.wrench[pushed, 0], push.wrench[pushed, 1]))]
         pushed = touch if len(touch) >= 10 else pushed
     if len(pushed) < 10:
-        return None, None, None
+        return None, None, None, None
     heading = push.object_pose[pushed, 2] + frame_yaw
     rel = push.tip_xy[pushed] - push.object_pose[pushed, :2]
     c, s = np.cos(heading), np.sin(heading)
@@ -138,11 +139,13 @@ def _contact_gap(push: PushRecording, outline: np.ndarray, frame_yaw: float
     h = 1e-5  # the outward normal: the signed distance's gradient (central differences)
     grad = np.column_stack([signed_distance(local + d, outline) - signed_distance(local - d, outline)
                             for d in (np.array([h, 0.0]), np.array([0.0, h]))]) / (2 * h)
-    world = np.column_stack([c * grad[:, 0] - s * grad[:, 1], s * grad[:, 0] + c * grad[:, 1]]).mean(axis=0)
+    normals = np.column_stack([c * grad[:, 0] - s * grad[:, 1], s * grad[:, 0] + c * grad[:, 1]])
+    world = normals.mean(axis=0)
     norm = float(np.linalg.norm(world))
     median = float(np.median(gap))
+    into = -np.sum(np.gradient(push.tip_xy, push.t, axis=0)[pushed] * normals, axis=1)
     return (median, float(1.4826 * np.median(np.abs(gap - median))),
-            (float(world[0] / norm), float(world[1] / norm)) if norm > 1e-9 else None)
+            (float(world[0] / norm), float(world[1] / norm)) if norm > 1e-9 else None, float(np.median(into)))
 
 
 def _force(push: PushRecording) -> tuple[ObservedForce | None, str]:

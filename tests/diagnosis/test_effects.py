@@ -167,3 +167,43 @@ def test_a_squeezed_object_places_the_post_on_the_line_of_the_rods_force():
     assert off_line < 1e-6 and float(u @ (post - rod)) > 0.1  # on the line, beyond the object
     assert abs(_gap(square, (0.0, 0.0), 0.0, post)) < 2e-4  # touching the outline
     assert post[1] > OBSTACLE_RADIUS  # at the upper face the line leaves by, not ahead of the origin (y = 0)
+
+
+def _deflected(post, turn: float, n: int = 60):
+    """A 10 cm square pushed 12 cm along +x towards a post at `post`: simulated straight through it, observed
+    held where it meets the post while it slides sideways (`turn`: which side) until clear, then on past it."""
+    import numpy as np
+
+    from bridge.params.kinds import OBSTACLE_RADIUS
+
+    x = np.linspace(0.0, 0.12, n)
+    sim = np.column_stack([x, np.zeros(n), np.zeros(n)])
+    meet = post[0] - 0.05 - OBSTACLE_RADIUS  # the square's leading face touches the post
+    clear = 0.05 + OBSTACLE_RADIUS + 0.002
+    side = np.clip((x - meet) / 0.03, 0.0, 1.0) * clear * turn
+    ahead = np.where(x < meet + 0.03, np.minimum(x, meet), meet + (x - meet - 0.03))
+    obs = np.column_stack([ahead, side, np.zeros(n)])
+    return {"significant": True, "rms": 20.0, "poses_obs": obs, "poses_sim": sim}
+
+
+def test_a_post_the_real_object_slid_past_is_placed_where_only_the_simulated_one_went():
+    """An object deflected by a post, with no jam of the force, leaves one trace: the simulated object went
+    where the real one never did, and the real one touched. Two pushes deflected to either side put the post
+    there (one alone cannot tell a post ahead from one at the corner it slid away from; the ellipse of an
+    independent MuJoCo world: 2.5 mm from its post, where the jam rules had placed none); a place the real
+    object went is never a post's, and paths that agree place none."""
+    import numpy as np
+
+    from bridge.diagnosis.effects.hidden_obstacle import _swept_spot
+
+    square = np.array([[-0.05, -0.05], [0.05, -0.05], [0.05, 0.05], [-0.05, 0.05]])
+    post = np.array([0.10, 0.0])
+    found = _swept_spot(square, [_deflected(post, +1.0), _deflected(post, -1.0)])
+    assert found is not None and np.linalg.norm(found - post) < 0.008, found
+    agree = _deflected(post, +1.0)
+    agree["poses_sim"] = agree["poses_obs"]
+    assert _swept_spot(square, [agree]) is None
+    passed = _deflected(post, +1.0)  # a third push whose real object went straight through the spot
+    passed["poses_obs"] = passed["poses_sim"]
+    elsewhere = _swept_spot(square, [_deflected(post, +1.0), _deflected(post, -1.0), passed])
+    assert elsewhere is None or np.linalg.norm(elsewhere - post) > 0.02

@@ -166,7 +166,7 @@ def test_the_contact_gap_is_read_where_the_rod_touches_not_where_a_kicked_object
     push = load_push(mit_push_root / "train" / "motion_surface=abs_shape=hex_a=0_v=100_i=1.000_s=0.600_t=0.000.h5")
     outline = load_outline("hex", mit_push_root)
     yaw = -math.pi / 2  # hex's pose frame is turned a quarter from its mesh (`estimate_frame_yaw`)
-    gap, _, _ = _contact_gap(push, outline, yaw)
+    gap, *_ = _contact_gap(push, outline, yaw)
     # the object slides 3 mm ahead of the rod, free of it, in two of every three moving samples
     speed = np.linalg.norm(np.gradient(push.object_pose[:, :2], push.t, axis=0), axis=1)
     moving = np.nonzero(speed > 0.3 * np.percentile(speed, 90))[0]
@@ -177,7 +177,34 @@ def test_the_contact_gap_is_read_where_the_rod_touches_not_where_a_kicked_object
     wrench = np.array(push.wrench)
     wrench[kicked] = 0.0
     slid = replace(push, object_pose=pose, wrench=wrench)
-    touched, _, _ = _contact_gap(slid, outline, yaw)
-    blind, _, _ = _contact_gap(replace(slid, wrench=None), outline, yaw)  # no force to tell: every moving sample
+    touched, *_ = _contact_gap(slid, outline, yaw)
+    blind, *_ = _contact_gap(replace(slid, wrench=None), outline, yaw)  # no force to tell: every moving sample
     assert abs(touched - gap) < 3e-4, (touched, gap)
     assert blind - gap > 1e-3, (blind, gap)
+
+
+def test_the_contact_gaps_of_real_pushes_at_different_speeds_measure_a_planted_latency(mit_push_root, mit_odb):
+    """A recorded rod that runs tau ahead of the real one (the `latency` kind: true(t) = recorded(t - tau)) sits
+    tau x its speed inside the outline while it pushes: the rect1 pushes, at 10-150 mm/s, measure tau from the
+    gaps alone, before any simulation; the unplanted pushes show no latency that matters, and a planted
+    calibration offset reads as an offset, not as a latency."""
+    names = sorted(p.name for p in (mit_push_root / "train").glob("*shape=rect1_*.h5"))
+    pushes = [load_push(mit_push_root / "train" / n) for n in names]
+
+    def fit(tau=0.0, offset=(0.0, 0.0)):
+        moved = []
+        for p in pushes:
+            ahead = np.column_stack([np.interp(p.t + tau, p.t, p.tip_xy[:, k]) for k in range(2)])
+            moved.append(_trial(replace(p, tip_xy=ahead - np.array(offset)), mit_odb))
+        return read_adjustments([prepare(t, mit_odb, 25.0) for t in moved]).contact_fit()
+
+    base, planted, offset = fit(), fit(tau=0.06), fit(offset=(0.003, 0.002))
+    assert not base.latency_evident and abs(base.latency) * base.speed < 5e-4
+    assert planted.latency_evident
+    assert planted.latency - base.latency == pytest.approx(0.06, abs=0.01)
+    assert not offset.latency_evident and offset.offset_evident
+    assert abs(offset.latency - base.latency) < 2 * offset.latency_sd  # within its own uncertainty
+    sentences = read_adjustments([prepare(_trial(replace(p, tip_xy=np.column_stack(
+        [np.interp(p.t + 0.06, p.t, p.tip_xy[:, k]) for k in range(2)])), mit_odb), mit_odb, 25.0)
+        for p in pushes]).sentences()
+    assert any("evidence of latency" in s and "ahead of the real rod" in s for s in sentences)

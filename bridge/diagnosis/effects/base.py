@@ -57,6 +57,9 @@ class Evidence:
     # how far outside (> 0) or inside the modelled outline the rod pushed on every side (m, `loader.ContactFit`),
     # when the contact gaps make it evident (None otherwise): a larger or smaller object, or a stiffer contact
     inflation: float | None = None
+    # the latency the contact gaps of recordings pushed at different speeds measure (s, `loader.ContactFit`), when
+    # they make it evident (None otherwise)
+    latency: float | None = None
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))

@@ -20,6 +20,7 @@ from .base import Effect, Evidence, Recovery, Truth, pname
 
 SIZES = (0.02, 0.03, 0.045)  # m: the proof's boxes (small, medium, large)
 LATERAL = 0.015  # m: seeds beside the jam's spot, across the push (a post's radius)
+SWEPT_GRID = 0.004  # m: the spacing of the post centres `_swept_spot` tries (finer than TOUCH)
 TOUCH = 0.004  # m: how far off every jammed pose the one post may lie (the poses' noise and the outline's
 #               modelling error, a few millimetres; beyond, the jams met different sides or different posts)
 
@@ -47,15 +48,17 @@ class HiddenObstacle(Effect):
         return min(1.0, 0.3 + 0.3 * len(late) / max(1, len(evidence.significant())) + 0.4 * stall)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Posts touching the real objects' leading sides where the robot's force jammed (the surest sign: a rod
-        held back by the object it pushes; with two jams or more, the one point that touches every jammed pose
-        first), else where their residual began mid-push: the median spot and the first few.
+        """Where the simulated objects went and the real ones did not (`_swept_spot`); posts touching the real
+        objects' leading sides where the robot's force jammed (the surest sign: a rod held back by the object it
+        pushes; with two jams or more, the one point that touches every jammed pose first), else where their
+        residual began mid-push: the median spot and the first few.
 
         Touching, not beyond the farthest point: a post placed where the simulated object never reaches changes
         no residual, so a screen or a fit cannot move it (the mismatched proof's post 14 mm beyond a square
         turned 14 degrees stayed `none`). Each spot lies straight ahead of the object's origin along its push,
         one post radius off the outline at the observed pose (`_ahead`, `_touching_all`)."""
         outline = _outline(evidence)
+        swept = _swept_spot(outline, evidence.features)
         jams = [f for f in evidence.features if f.get("jam_xy_obs") is not None]
         spots = [_across(outline, f) if f.get("jam_force_dir") is not None and outline is not None else
                  _ahead(outline, f["jam_xy_obs"], f.get("jam_yaw_obs"), f["direction"], f["jam_reach"]) for f in jams]
@@ -68,10 +71,10 @@ class HiddenObstacle(Effect):
             spots.append(_ahead(outline, f["onset_xy_obs"], f.get("onset_yaw_obs"), f["direction"],
                                 f.get("reach", 0.05)))
         if not spots:
-            return []
+            return [_post(target, swept)] if swept is not None else []
         spots = np.array(spots)
         middle = met if met is not None else np.median(spots, axis=0)
-        candidates = [middle] + list(spots[:3])
+        candidates = ([swept] if swept is not None else []) + [middle] + list(spots[:3])
         if jams:  # the post may touch the leading side anywhere along it: beside the first spot too
             d = np.mean([f["direction"] for f in jams], axis=0)
             e = np.array([-d[1], d[0]]) / (np.linalg.norm(d) or 1.0)
@@ -80,8 +83,8 @@ class HiddenObstacle(Effect):
         for s in candidates:
             if all(np.linalg.norm(s - q) > 0.01 for q in seen):
                 seen.append(s)
-                seeds.append({pname("obstacle_x", target): float(s[0]), pname("obstacle_y", target): float(s[1])})
-        return seeds[:5 if jams else 3]
+                seeds.append(_post(target, s))
+        return seeds[:(5 if jams else 3) + (swept is not None)]
 
     # --- the proof: a welded box of random size and yaw; the model places a post ------------------------------
     def draw_truth(self, scene, odb, rng, magnitude, sign):
@@ -112,6 +115,79 @@ class HiddenObstacle(Effect):
         x, y = pname("obstacle_x", truth.target), pname("obstacle_y", truth.target)
         d = math.hypot(found[x] - truth.params[x], found[y] - truth.params[y])
         return Recovery(d <= 0.025, d, "m", f"post {d * 1e3:.0f} mm from the box centre (25 mm)")
+
+
+def _post(target: str, xy) -> dict[str, float]:
+    return {pname("obstacle_x", target): float(xy[0]), pname("obstacle_y", target): float(xy[1])}
+
+
+def _swept_spot(outline: np.ndarray | None, features, grid: float = SWEPT_GRID) -> np.ndarray | None:
+    """Where a post keeps the real objects out of a place the simulated ones went: on a grid of post centres over
+    every path, a post is ruled out where a real object (observed poses) overlapped it by more than TOUCH in any
+    recording, and scores a recording's residual (noise floors, significant recordings) where the simulated
+    object overlapped it by more than TOUCH while the real one touched it (came within TOUCH of it: what
+    deflects an object touches it; a place the simulated object merely went further to is no post's). Of the
+    best score's plateau, the point the real objects touched first (a deflection starts at the touch); None when
+    no post scores (no outline, nothing significant, or every place the simulation went the real objects went
+    too). Geometry alone, before any simulation of a post: it holds when the object slides past the post with no
+    jam of the force (independent MuJoCo worlds: an ellipse deflected 20 mm sideways by a post, the spot 2.5 mm
+    from it; a square's and a hexagon's 10-11 mm)."""
+    tracks = [f for f in features if f.get("significant") and f.get("poses_obs") is not None]
+    if outline is None or not tracks:
+        return None
+    reach = float(np.max(np.linalg.norm(outline, axis=1))) + OBSTACLE_RADIUS
+    xy = np.vstack([np.asarray(f[k])[:, :2] for f in tracks for k in ("poses_obs", "poses_sim")])
+    lo, hi = xy.min(axis=0) - reach, xy.max(axis=0) + reach
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0], grid), np.arange(lo[1], hi[1], grid), indexing="ij")
+    points = np.column_stack([gx.ravel(), gy.ravel()])
+    score, ruled_out = np.zeros(len(points)), np.zeros(len(points), dtype=bool)
+    field = _DistanceField(outline, reach + 2 * TOUCH)
+    first = np.zeros(len(points))  # when the real objects first touched each post (share of the path, summed)
+    for f in tracks:
+        observed, touch = field.least(np.asarray(f["poses_obs"]), points, OBSTACLE_RADIUS + TOUCH)
+        simulated, _ = field.least(np.asarray(f["poses_sim"]), points, OBSTACLE_RADIUS + TOUCH)
+        ruled_out |= observed < OBSTACLE_RADIUS - TOUCH
+        hit = (simulated < OBSTACLE_RADIUS - TOUCH) & (observed >= OBSTACLE_RADIUS - TOUCH) & \
+            (observed < OBSTACLE_RADIUS + TOUCH)
+        score += f["rms"] * hit
+        first += np.where(hit, touch, 0.0)
+    score[ruled_out] = 0.0
+    if not np.any(score > 0):
+        return None
+    best = np.flatnonzero(score >= score.max() - 1e-9)
+    return points[best[int(np.argmin(first[best]))]]  # the one touched first: a deflection starts at the touch
+
+
+class _DistanceField:
+    """The outline's signed distance sampled once on a millimetre grid of the object frame (out to `half`, beyond
+    which every post is clear of it), read by bilinear interpolation: a track's thousands of post centres at
+    dozens of poses cost milliseconds, where the exact distance of a 60-vertex ellipse costs seconds."""
+
+    STEP = 0.001  # m
+
+    def __init__(self, outline: np.ndarray, half: float):
+        self.half = half
+        axis = np.arange(-half, half + self.STEP / 2, self.STEP)
+        gx, gy = np.meshgrid(axis, axis, indexing="ij")
+        self.values = signed_distance(np.column_stack([gx.ravel(), gy.ravel()]), outline).reshape(gx.shape)
+
+    def least(self, poses: np.ndarray, points: np.ndarray, near: float, samples: int = 30
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """Each point's least signed distance from the outline over `samples` poses (x, y, yaw) spread along the
+        track, its last pose included; and the share of the track at which it first came within `near` (1 when
+        it never did)."""
+        from scipy.ndimage import map_coordinates
+
+        chosen = np.vstack([poses[::max(1, len(poses) // samples)], poses[-1:]])
+        out, first = np.full(len(points), np.inf), np.ones(len(points))
+        for k, (x, y, yaw) in enumerate(chosen):
+            c, s = math.cos(yaw), math.sin(yaw)
+            v = points - np.array([x, y])
+            local = np.vstack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1]])
+            out = np.minimum(out, map_coordinates(self.values, (local + self.half) / self.STEP, order=1,
+                                                  mode="nearest"))
+            first = np.where((out < near) & (first == 1.0), k / len(chosen), first)
+        return out, first
 
 
 def _outline(evidence: Evidence) -> np.ndarray | None:

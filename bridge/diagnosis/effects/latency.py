@@ -25,6 +25,10 @@ class Latency(Effect):
         return (world.robot.name,) if world.robot is not None else ()
 
     def signature(self, evidence: Evidence, target: str) -> float:
+        """The start-of-motion shifts' consistency and the residual's correlation with speed; 1 when the contact
+        gaps measure a latency (the loader's evidence, before any simulation)."""
+        if evidence.latency is not None:
+            return 1.0
         shifts = self._shifts(evidence)
         consistent = 0.0
         if len(shifts) >= 2 and abs(float(np.median(shifts))) > 0.01:
@@ -32,11 +36,13 @@ class Latency(Effect):
         return 0.2 + 0.4 * max(0.0, evidence.mean("speed_corr")) + 0.4 * consistent
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """The median start-of-motion shift (observed minus simulated), half and one and a half of it, and the
-        null value."""
+        """The latency the contact gaps measure, the median start-of-motion shift (observed minus simulated), half
+        and one and a half of it, and the null value."""
         (p,) = self.parameters(evidence.world, evidence.odb, target)
         shifts = self._shifts(evidence)
         out = [{p.name: 0.0}]
+        if evidence.latency is not None:
+            out.append({p.name: float(np.clip(evidence.latency, *p.bounds))})
         if shifts:
             dt = float(np.median(shifts))
             out += [{p.name: float(np.clip(f * dt, *p.bounds))} for f in (1.0, 0.5, 1.5) if dt]
