@@ -464,7 +464,7 @@ def _space(friction: Sequence[Parameter], effect, target: str, world, odb,
     return ParameterSet(tuple(friction) + own, f"{effect.name} on {target}")
 
 
-def _measured(loader: LoaderEvidence, world=None) -> dict[str, tuple[float, float]]:
+def _measured(loader: LoaderEvidence, world) -> dict[str, tuple[float, float]]:
     """Effect parameters the recordings measure before any simulation, by name: (value, 1 sigma). The rod offset
     the contact gaps make evident (`loader.ContactFit`: where the rod sat on the outline while it pushed, from every
     recording) is such a measurement: a fit through a simulation of a world that differs from the model beneath
@@ -479,7 +479,7 @@ def _measured(loader: LoaderEvidence, world=None) -> dict[str, tuple[float, floa
     if fit.offset_evident:
         sd = np.sqrt(np.maximum(np.diag(np.asarray(fit.offset_cov, dtype=float)), 0.0))
         out.update({pname("joint_offset", j): (float(v), float(s)) for j, v, s in zip(fit.joints, fit.offset, sd)})
-    if fit.latency_evident and world is not None and world.robot is not None:
+    if fit.latency_evident and world.robot is not None:
         out[pname("latency", world.robot.name)] = (float(fit.latency), float(fit.latency_sd))
     return out
 
@@ -567,8 +567,8 @@ def _checked_against(s: Scored, loader: LoaderEvidence, frame: FrameFit | None =
     offset that the rod-to-outline gaps while pushing do not show (`ContactFit`: they measure the offset without
     simulating, so a fit that puts the rod elsewhere is soaking up something else), beyond NOISE_SIGMAS of the
     gaps' uncertainty (Mahalanobis), the same rule that makes the gaps' own offset evident; likewise a fitted
-    latency (`_latency_check`) or size (`_scale_check`) the gaps do not show and a fitted recorded frame that the pushing samples do not show
-    (`outline.FrameFit`, where they pin it: `_frame_check`)."""
+    latency (`_latency_check`) or size (`_scale_check`) the gaps do not show and a fitted recorded frame that the
+    pushing samples do not show (`outline.FrameFit`, where they pin it: `_frame_check`)."""
     from dataclasses import replace
 
     if s.effect == "object_frame":

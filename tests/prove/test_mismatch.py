@@ -170,11 +170,11 @@ def test_a_rod_offset_the_contact_gaps_measure_is_held_at_the_measurement_while_
     trials = load_trials(paths, odb, observation_rate=250.0)
     prepared = [prepare(t, odb, 25.0) for t in trials]
     loader = read_adjustments(prepared)
-    measured = _measured(loader)
+    world = trials[0].world
+    measured = _measured(loader, world)
     gaps = loader.contact_fit()
     assert set(measured) == {"joint_offset[pusher_x]", "joint_offset[pusher_y]"}, measured
     assert [measured[f"joint_offset[{j}]"][0] for j in gaps.joints] == pytest.approx(list(gaps.offset))
-    world = trials[0].world
     friction = _friction_parameters(world, odb, "steel_block")
     space = _space(friction, get_effect("pusher_offset"), "pusher", world, odb, measured)
     assert space.dim == len(friction)  # only the coefficients are free
