@@ -16,10 +16,14 @@ The numbers (docs/rollout.md, "Sleeping objects"):
   time. 5 mm/s is the speed at which dry friction of mu >= 0.1 stops a sliding object within
   v^2 / (2 mu g) = 0.013 mm; lasting 0.2 s catches a bounce or a slow topple, which accelerate again.
 - within reach: the gap between oriented bounding boxes (a lower bound of the distance, from separating axes)
-  is below clearance + (closing speed) x (2 samples + the time the robot's PD needs to settle). The settling
-  time is `settle_constants` x the slowest PD time constant kd / kp of the robot's actuators: a robot that
-  resumes exactly on its telemetry has settled to where the full simulation would have it before it can
-  touch anything. `clearance` covers the compliant contact layer and the 4 mm proximity of the final contacts.
+  is below clearance + (closing speed) x 2 checks: a sleeper wakes before anything can touch it.
+- the robot is stepped again (it stops following its telemetry kinematically) earlier: when a link comes
+  within clearance + speed x (2 checks + the time its PD needs to settle) of an object or a fixture. The
+  settling time is `settle_constants` x the slowest PD time constant kd / kp of the robot's actuators: a robot
+  that resumes exactly on its telemetry has settled to where the full simulation would have it before it can
+  touch anything. Between the two margins the robot is stepped and the objects still sleep (a step of the arm
+  alone costs about 0.4 of a step with one object awake on the table). `clearance` covers the compliant
+  contact layer and the 4 mm proximity of the final contacts.
 """
 from __future__ import annotations
 
@@ -93,10 +97,16 @@ class Sleepers:
                       np.array([o.half_width() for o in fixed]).reshape(-1, 3))
         self.links = np.array([n not in scene.bodies for n in self.names])[self.owner]  # robot links' boxes
         self._last: tuple | None = None  # (world boxes, speeds) of the last update
+        self._free = False  # `robot_free` as of the last update
+        self.X_WB = np.tile(np.eye(4), (len(self.bodies), 1, 1))  # each body's pose at the last update
         # checked at most every `check_period` of simulated time (a 250 Hz replay would pay the check 12 times
         # as often as its 50 Hz twin for nothing); the margin covers two checks
         self.check_period = max(1.0 / sample_rate, rules.check_period)
-        self.horizon = 2.0 * self.check_period + rules.settle_constants * _pd_time_constant(scene)
+        # two horizons: a sleeper wakes two checks before anything can reach it (`wake_horizon`); the robot is
+        # stepped again (leaving the kinematic follower) earlier, as long before as its PD needs to settle from
+        # its telemetry to where the full simulation has it (`horizon`), so it arrives settled
+        self.wake_horizon = 2.0 * self.check_period
+        self.horizon = self.wake_horizon + rules.settle_constants * _pd_time_constant(scene)
         self.checked = -np.inf
         self.asleep: dict[str, np.ndarray] = {}  # name -> spatial velocity [w; v] when it fell asleep
         self.forces = scene.force_source.GetMyMutableContextFromRoot(context) if scene.force_source else None
@@ -115,9 +125,10 @@ class Sleepers:
         return [Contact(c.body_a, c.body_b, c.force, c.point, t) for cs in self.held.values() for c in cs]
 
     def speeds(self) -> np.ndarray:
-        """Each boxed body's fastest point, |v| + |w| r (m/s), in the order of `names`."""
-        plant = self.scene.plant
-        V = np.array([plant.EvalBodySpatialVelocityInWorld(self.plant_ctx, b).get_coeffs() for b in self.bodies])
+        """Each boxed body's fastest point, |v| + |w| r (m/s), in the order of `names` (a sleeper's is 0)."""
+        V = np.zeros((len(self.bodies), 6))
+        for k in self._moving():
+            V[k] = self.scene.plant.EvalBodySpatialVelocityInWorld(self.plant_ctx, self.bodies[k]).get_coeffs()
         return np.sqrt(np.square(V[:, 3:]).sum(axis=1)) + np.sqrt(np.square(V[:, :3]).sum(axis=1)) * self.reach
 
     def update(self, t: float, contacts: Callable[[], list[Contact]]) -> bool:
@@ -136,9 +147,14 @@ class Sleepers:
                 self.rest_since.pop(name, None)
             else:
                 self.rest_since.setdefault(name, t)
-        X_WB = np.array([self.scene.plant.EvalBodyPoseInWorld(self.plant_ctx, b).GetAsMatrix4() for b in self.bodies])
-        X_WO = X_WB[self.owner] @ self.X_BO
+        for k in self._moving():  # a sleeper has not moved since it fell asleep
+            self.X_WB[k] = self.scene.plant.EvalBodyPoseInWorld(self.plant_ctx, self.bodies[k]).GetAsMatrix4()
+        X_WO = self.X_WB[self.owner] @ self.X_BO
         world = (X_WO[:, :3, 3], X_WO[:, :3, :3])
+        self._last = (world, speeds)
+        self._free = self._robot_free()
+        if self._free:  # only the robot moves, out of the settling horizon: nothing can wake or fall
+            return False
         changed, woken = False, True
         while woken:  # a woken object may reach another sleeper
             woken = {self.names[k] for k in self._reached([index[n] for n in self.asleep], world, speeds,
@@ -160,26 +176,40 @@ class Sleepers:
             changed = True
         if changed:
             self._refilter()
-        self._last = (world, speeds)
+            self._free = self._robot_free()
         return changed
 
+    def _moving(self) -> list[int]:
+        """Indices (into `names`) of the bodies that are not asleep: robot links and awake objects."""
+        return [k for k, n in enumerate(self.names) if n not in self.asleep]
+
     def robot_free(self) -> bool:
-        """Whether the replay may skip stepping: every object asleep and no robot link within reach of a
-        fixture (a table or a post the robot may run into), as of the last `update`."""
+        """Whether the replay may skip stepping: every object asleep and no robot link within the settling
+        horizon of a fixture (a table or a post the robot may run into) or of an object, as of the last
+        `update`. Near an object the robot is stepped while the object still sleeps (it wakes later, within
+        `wake_horizon`): the robot then touches it as the full simulation's robot would."""
+        return self._free
+
+    def _robot_free(self) -> bool:
         if not self.all_asleep or self._last is None:
             return False
+        if not self.links.any():
+            return True
         (C, R), speeds = self._last
         C_f, R_f, H_f = self.fixed
-        if not len(C_f) or not self.links.any():
+        objects = ~self.links
+        C_o, R_o, H_o = (np.concatenate([C_f, C[objects]]), np.concatenate([R_f, R[objects]]),
+                         np.concatenate([H_f, self.half[objects]]))
+        if not len(C_o):
             return True
         links = self.links
         margin = self.rules.clearance + speeds[self.owner[links]][:, None] * self.horizon
-        return not np.any(_gaps(C[links], R[links], self.half[links], C_f, R_f, H_f) < margin)
+        return not np.any(_gaps(C[links], R[links], self.half[links], C_o, R_o, H_o) < margin)
 
     def wake_all(self) -> bool:
         """Everything awake and every filter gone: the context as the full simulation would have it. Returns
         whether anything changed."""
-        self._last = None
+        self._last, self._free = None, False
         if not self.asleep:
             return False
         for name in list(self.asleep):
@@ -199,7 +229,8 @@ class Sleepers:
         if not rows.any() or not cols.any():
             return set()
         (C, R), H, owner = world, self.half, self.owner
-        margin = self.rules.clearance + (speeds[owner[rows]][:, None] + speeds[owner[cols]][None, :]) * self.horizon
+        margin = (self.rules.clearance
+                  + (speeds[owner[rows]][:, None] + speeds[owner[cols]][None, :]) * self.wake_horizon)
         hit = (_gaps(C[rows], R[rows], H[rows], C[cols], R[cols], H[cols]) < margin).any(axis=1)
         return set(owner[rows][hit].tolist())
 

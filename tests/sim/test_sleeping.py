@@ -109,16 +109,21 @@ def test_an_object_starting_in_the_air_falls_before_it_sleeps(scene, world, odb)
     assert pose_gap(full.final_poses["small_box"], held.final_poses["small_box"])[0] < 0.01
 
 
-def test_the_robot_wakes_an_object_before_it_can_touch_it(odb):
-    """Pushing a box over: the box sleeps while the arm approaches, wakes while the arm is still away (at least
-    the PD settling time before the first touch), and the push ends as in the full simulation that made the
+def test_the_robot_is_stepped_before_it_nears_an_object_and_the_object_wakes_before_the_touch(odb):
+    """Pushing a box over: the box sleeps while the arm approaches; the arm is stepped again (it leaves its
+    telemetry's kinematic path) at least the PD settling time before the first touch, while the box still
+    sleeps; the box wakes before the touch, and the push ends as in the full simulation that made the
     recording."""
     asleep = session(REPO / "demo" / "recordings" / "1_push_over", odb)
     replay = asleep.replay
     first_touch = min(c.time for c in replay.contact_log if c.involves("arm") and "big_box" in (c.body_a, c.body_b))
-    woken = max(start for start, _ in replay.awake if start < first_touch)
-    assert woken > 1.0  # asleep during the approach ...
-    assert first_touch - woken > 0.1  # ... and awake well before the touch
+    stepped = max(start for start, _ in replay.awake if start < first_touch)
+    assert stepped > 1.0  # followed kinematically during the approach ...
+    assert first_touch - stepped > 0.1  # ... and stepped well before the touch
+    track, times = replay.tracks["big_box"], replay.times[1:]
+    held = times[np.all(track[1:] == track[:-1], axis=1)]  # a sleeper's pose is held exactly
+    woken = held[held < first_touch].max()
+    assert stepped < woken < first_touch  # the arm stepped beside a sleeping box, the box awake for the touch
     assert sum(b - a for a, b in replay.awake) < 0.5 * replay.sim_time
     assert "(upright big_box)" not in {str(f) for f in asleep.inference.world.facts}
 
