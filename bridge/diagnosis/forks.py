@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..params import Setting
+from ..params import Model, Setting
 from .runs import Runner
 
 PLACEMENT = 0.001  # m: how well a recording places an object against what touches it (motion capture and a
@@ -45,6 +45,7 @@ class Forks:
     placement: float
     size: Mapping[str, float]  # recording -> RMS fork / noise
     failed: tuple[str, ...] = ()  # recordings where a shifted replay failed: their fork is not known
+    model: Model = ()  # where they were measured: the calibration the recordings measure (nominal if none)
 
     def forked(self, level: float = 1.0) -> list[str]:
         """The recordings whose fork is larger than `level` times their noise (RMS)."""
@@ -53,28 +54,32 @@ class Forks:
     def sentence(self) -> str:
         forked = self.forked()
         mm = f"{1e3 * self.placement:g} mm"
+        at = ("" if not self.model else " (with the " + ", ".join(f"{s.name} = {s.value:.4g}" for s in self.model)
+              + " the recordings measure)")
         if not forked:
-            return f"no recording forks when its objects are moved by {mm}"
+            return f"no recording forks when its objects are moved by {mm}{at}"
         listed = ", ".join(f"{n} ({self.size[n]:.0f} noise floors)" for n in forked)
-        return (f"the model's outcome forks within {mm} of where the objects were recorded in {listed}: "
+        return (f"the model's outcome{at} forks within {mm} of where the objects were recorded in {listed}: "
                 f"scored with that fork as part of their tolerance (a corner push, a sticking point)")
 
     def to_json(self) -> dict:
         return {"placement_m": self.placement, "rms_fork_noise": {n: round(v, 3) for n, v in self.size.items()},
-                "forked": self.forked(), "failed": list(self.failed), "note": self.sentence()}
+                "forked": self.forked(), "failed": list(self.failed),
+                "measured_at": {s.name: s.value for s in self.model}, "note": self.sentence()}
 
 
-def measure_forks(runner: Runner, indices: Sequence[int], placement: float = PLACEMENT) -> Forks:
-    """Replay the nominal model with every observed object shifted by +-`placement` along x and y, and set each
-    prepared trial's fork (`runner.prepared` is updated in place). 4 replays per observed object and recording."""
+def measure_forks(runner: Runner, indices: Sequence[int], placement: float = PLACEMENT, model: Model = ()) -> Forks:
+    """Replay `model` (the nominal one, or the calibration the recordings measure: `identify.measured_model`) with
+    every observed object shifted by +-`placement` along x and y, and set each prepared trial's fork
+    (`runner.prepared` is updated in place). 4 replays per observed object and recording."""
     pairs, keys = [], []
     for i in indices:
         for s in runner.prepared[i].series:
             for kind in KINDS:
                 for sign in (1.0, -1.0):
-                    pairs.append(((Setting(kind, s.object, sign * placement),), i))
+                    pairs.append(((*model, Setting(kind, s.object, sign * placement)), i))
                     keys.append((i, s.object, kind, sign))
-    base = dict(zip(indices, runner.run((), indices)))
+    base = dict(zip(indices, runner.run(tuple(model), indices)))
     shifted = dict(zip(keys, runner.run_pairs(pairs)))
     sizes: dict[str, float] = {}
     failed = []
@@ -98,7 +103,7 @@ def measure_forks(runner: Runner, indices: Sequence[int], placement: float = PLA
         ratio = np.concatenate([((s.fork[:, s.measured] / s.sigma[s.measured]) ** 2).ravel() for s in series])
         sizes[p.name] = float(np.sqrt(np.mean(ratio)))
         runner.prepared[i] = replace(p, series=series, force=force)
-    return Forks(placement, sizes, tuple(failed))
+    return Forks(placement, sizes, tuple(failed), tuple(model))
 
 
 def _even(base: np.ndarray, shifted: Sequence[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:

@@ -29,7 +29,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import DiagnosisError
-from ..params import Model, Parameter, ParameterSet
+from ..params import Model, Parameter, ParameterSet, Setting
 from ..params.kinds import link_friction
 from ..params.surfaces import support_of
 from ..rollout.compare import PoseError
@@ -472,16 +472,32 @@ def _measured(loader: LoaderEvidence, world) -> dict[str, tuple[float, float]]:
     (+3.8, -8.3) mm fitted; (-3.0, +2.7) measured, (-3.5, +3.1) fitted and refused as 6 sigma off the
     measurement), so `pusher_offset` is the measured offset with the friction coefficients fitted to it. So is the
     latency the gaps of recordings pushed at different speeds make evident (`ContactFit.latency`)."""
+    return {pname(s.kind, s.target): (s.value, sd) for s, sd in _measured_settings(loader, world)}
+
+
+def _measured_settings(loader: LoaderEvidence, world) -> list[tuple[Setting, float]]:
+    """`_measured` as settings, each with its 1 sigma."""
     fit = loader.contact_fit()
     if fit is None:
-        return {}
-    out = {}
+        return []
+    out = []
     if fit.offset_evident:
         sd = np.sqrt(np.maximum(np.diag(np.asarray(fit.offset_cov, dtype=float)), 0.0))
-        out.update({pname("joint_offset", j): (float(v), float(s)) for j, v, s in zip(fit.joints, fit.offset, sd)})
+        out += [(Setting("joint_offset", j, float(v), "pusher_offset"), float(s))
+                for j, v, s in zip(fit.joints, fit.offset, sd)]
     if fit.latency_evident and world.robot is not None:
-        out[pname("latency", world.robot.name)] = (float(fit.latency), float(fit.latency_sd))
+        out.append((Setting("latency", world.robot.name, float(fit.latency), "latency"), float(fit.latency_sd)))
     return out
+
+
+def measured_model(runner: Runner, train: Sequence[int], held_out: Sequence[int] = ()) -> Model:
+    """The calibration the recordings measure before any simulation (`_measured`: a rod offset, a latency), as a
+    model: where the objects and the rod are known to be. The forks are measured there (`forks.measure_forks`)."""
+    order = list(train) + list(held_out)
+    if not order:
+        return ()
+    loader = read_adjustments([runner.prepared[i] for i in order], range(len(train), len(order)))
+    return tuple(s for s, _ in _measured_settings(loader, runner.prepared[order[0]].world))
 
 
 def _all_measured(c: Candidate, world, odb, measured: dict[str, tuple[float, float]]) -> bool:

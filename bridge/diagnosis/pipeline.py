@@ -19,7 +19,7 @@ from ..rollout.executors import Executor, make_executor
 from ..rollout.trials import Trial
 from ..timelimit import TimeLimit
 from .forks import measure_forks
-from .identify import Identification, Options, identify
+from .identify import Identification, Options, identify, measured_model
 from .locate import Localisation, locate
 from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, plot_paths, plot_residuals, plot_scores, report_markdown,
                      write_outputs)
@@ -79,7 +79,9 @@ def run_diagnosis(trials: Sequence[Trial], odb: ObjectDatabase, out: str | Path 
         runner = Runner(prepared, odb, executor, time_step=None if time_step == "auto" else float(time_step))
         step = choose_time_step(runner, sorted(train + held))
         scales = choose_time_scales(runner, sorted(train + held), quasi_static)
-        forks = measure_forks(runner, sorted(train + held))
+        # where the object is known to be includes the calibration the recordings measure (a rod offset of 4 mm
+        # moves a corner push off its fork, or onto one)
+        forks = measure_forks(runner, sorted(train + held), model=measured_model(runner, train, held))
         if log is not None:
             log(step.sentence())
             log(scales.sentence())

@@ -51,3 +51,28 @@ def test_a_push_at_a_corner_forks_and_a_push_at_a_face_does_not(odb, tmp_path):
     assert series.fork.shape == (len(series.times), 6)
     assert not runner.prepared[0].series[0].fork.any()  # a smooth push's second-order part is no fork
     assert series.fork[0].sum() == 0.0 and series.fork[-1].sum() > 0.0  # forked after the contact, not before
+
+
+@pytest.mark.slow
+def test_forks_are_measured_where_a_measured_calibration_puts_the_rod(odb, tmp_path):
+    """The corner push forks where the rod is recorded; with a rod offset the recordings measure (8 mm across the
+    diagonal, `identify.measured_model`) the rod meets a face 8 mm beside the corner, smoothly: scored there, the
+    push keeps the noise as its tolerance, and the forks say where they were measured."""
+    from bridge.params import Setting
+
+    rng = np.random.default_rng(4)
+    d = np.array([1.0, 1.0]) / math.sqrt(2.0)
+    corner = np.array([-HALF, -HALF]) - (ROD + 0.012) * d + 0.0004 * np.array([-d[1], d[0]])
+    path = _push(tmp_path / "corner.h5", corner, d, rng)
+    across = 0.008 * np.array([-d[1], d[0]])
+    model = (Setting("joint_offset", "pusher_x", float(across[0])), Setting("joint_offset", "pusher_y", float(across[1])))
+    nominal = measure_forks(Runner([prepare(t, odb, 25.0) for t in load_trials([path], odb)], odb,
+                                   make_executor("serial", odb)), [0])
+    runner = Runner([prepare(t, odb, 25.0) for t in load_trials([path], odb)], odb, make_executor("serial", odb))
+    calibrated = measure_forks(runner, [0], model=model)
+    assert nominal.forked() == ["corner"]
+    assert calibrated.forked() == [], calibrated
+    assert not runner.prepared[0].series[0].fork.any()
+    assert calibrated.to_json()["measured_at"] == pytest.approx({"joint_offset[pusher_x]": across[0],
+                                                                 "joint_offset[pusher_y]": across[1]})
+    assert "joint_offset[pusher_x]" in calibrated.sentence()

@@ -156,6 +156,29 @@ def test_the_contact_gaps_of_real_pushes_recover_a_planted_offset_and_an_outline
     assert grown.rms_after < 0.5 * grown.rms_before  # what is left once D and s are removed: the scatter
 
 
+def test_the_measured_offset_is_the_calibration_the_forks_are_measured_at(mit_push_root, mit_odb):
+    """`identify.measured_model`: the rod offset the gaps make evident, as the model the diagnosis measures its
+    forks at (where the rod is known to be), planted on top of the real pushes' own."""
+    from bridge.diagnosis.identify import measured_model
+    from bridge.diagnosis.runs import Runner
+    from bridge.rollout import make_executor
+
+    names = sorted(p.name for p in (mit_push_root / "train").glob("*shape=rect1_*.h5"))
+    pushes = [load_push(mit_push_root / "train" / n) for n in names]
+
+    def model(offset):
+        trials = [_trial(replace(p, tip_xy=p.tip_xy - np.array(offset)), mit_odb) for p in pushes]
+        runner = Runner([prepare(t, mit_odb, 25.0) for t in trials], mit_odb, make_executor("serial", mit_odb))
+        train, held = range(len(trials) - 2), range(len(trials) - 2, len(trials))
+        return {s.name: s.value for s in measured_model(runner, train, held)}
+
+    base, planted = model((0.0, 0.0)), model((0.004, -0.003))
+    assert set(planted) == {"joint_offset[pusher_x]", "joint_offset[pusher_y]"}
+    shift = np.array([planted[k] - base.get(k, 0.0) for k in sorted(planted)])
+    np.testing.assert_allclose(shift, (0.004, -0.003), atol=1e-3)
+    assert not any(k.startswith("latency") for k in planted)  # an offset is not read as a lead
+
+
 def test_the_contact_gap_is_read_where_the_rod_touches_not_where_a_kicked_object_slides_ahead(mit_push_root,
                                                                                                 mit_odb):
     """A push that kicks the object ahead of the rod moves it while nothing touches: those samples (no force) put
