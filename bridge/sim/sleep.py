@@ -67,7 +67,7 @@ class Sleepers:
         self.plant_ctx = plant.GetMyMutableContextFromRoot(context)
         self.sg_ctx = scene.scene_graph.GetMyMutableContextFromRoot(context)
         query = scene.scene_graph.get_query_output_port().Eval(self.sg_ctx)
-        owners, bodies, X_BO, half = [], [], [], []  # one row per box: free objects and moving robot links
+        owners, X_BO, half = [], [], []  # one row per box: free objects and moving robot links
         welded = {b.index() for b in plant.GetBodiesWeldedTo(plant.world_body())}
         candidates = dict(scene.bodies)
         if scene.robot_instance is not None:

@@ -65,7 +65,7 @@ def test_forks_are_measured_where_a_measured_calibration_puts_the_rod(odb, tmp_p
     corner = np.array([-HALF, -HALF]) - (ROD + 0.012) * d + 0.0004 * np.array([-d[1], d[0]])
     path = _push(tmp_path / "corner.h5", corner, d, rng)
     across = 0.008 * np.array([-d[1], d[0]])
-    model = (Setting("joint_offset", "pusher_x", float(across[0])), Setting("joint_offset", "pusher_y", float(across[1])))
+    model = tuple(Setting("joint_offset", j, float(v)) for j, v in zip(("pusher_x", "pusher_y"), across))
     nominal = measure_forks(Runner([prepare(t, odb, 25.0) for t in load_trials([path], odb)], odb,
                                    make_executor("serial", odb)), [0])
     runner = Runner([prepare(t, odb, 25.0) for t in load_trials([path], odb)], odb, make_executor("serial", odb))
