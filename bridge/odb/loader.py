@@ -44,7 +44,7 @@ from .ranges import RANGES, joint_problem
 from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl, RobotSpec, SIERef
 
 TYPE_KEYS = {"parent", "pddl_type", "abstract", "fixed", "geometry", "physics", "predicates", "robot", "doc"}
-GEOMETRY_KEYS = {"shape", "size", "mesh", "scale", "convex", "color", "contact", "footprint_vertices"}
+GEOMETRY_KEYS = {"shape", "size", "mesh", "scale", "convex", "color", "contact", "footprint_vertices", "plane_top"}
 CONTACT_MODES = ("prism", "drake")  # bridge.sim.prisms.MODES
 PHYSICS_KEYS = {"mass", "density", "com", "inertia", "friction", "dynamic_friction", "hydroelastic_modulus", "dissipation",
                 "friction_sd", "mass_sd", "com_sd"}
@@ -169,6 +169,9 @@ class _Reader:
             robot = self.robot(body["robot"], raw)
         abstract = self.flag(body, "abstract", False, raw)
         fixed = self.flag(body, "fixed", parent.fixed if parent else False, raw)
+        if geometry is not None and geometry.plane_top and not fixed:
+            raise ObjectDatabaseError("plane_top applies to fixtures only (a free object's top carries nothing as a "
+                                      "plane)", source=src, field=f"{raw.name}.geometry.plane_top")
         if not abstract and robot is None:
             if geometry is None:
                 raise ObjectDatabaseError("a concrete type needs a geometry (or 'abstract: true')", source=src, field=f"{raw.name}.geometry")
@@ -196,6 +199,9 @@ class _Reader:
             raise ObjectDatabaseError(f"shape {shape!r} is not one of {', '.join(SHAPES)}", source=src, field=f"{fld}.shape")
         color = tuple(_numbers(body.get("color", [0.6, 0.6, 0.6, 1.0]), 4, src, f"{fld}.color", positive=False))
         if shape == "mesh":
+            if "plane_top" in body:
+                raise ObjectDatabaseError("plane_top applies to box geometry only, not mesh", source=src,
+                                          field=f"{fld}.plane_top")
             mesh, unresolved = self.mesh_path(body.get("mesh"), raw)
             scale = _number(body.get("scale", 1.0), src, f"{fld}.scale", positive=True)
             contact = body.get("contact")
@@ -211,8 +217,14 @@ class _Reader:
         for key in ("contact", "footprint_vertices"):
             if key in body:
                 raise ObjectDatabaseError(f"{key} applies to mesh geometry only", source=src, field=f"{fld}.{key}")
+        plane_top = body.get("plane_top", False)
+        if not isinstance(plane_top, bool):
+            raise ObjectDatabaseError(f"must be true or false, got {plane_top!r}", source=src, field=f"{fld}.plane_top")
+        if plane_top and shape != "box":
+            raise ObjectDatabaseError(f"plane_top applies to box geometry only, not {shape}", source=src,
+                                      field=f"{fld}.plane_top")
         size = tuple(_numbers(body.get("size"), SIZE_LENGTH[shape], src, f"{fld}.size", positive=True))
-        return Geometry(shape, size, color=color)  # type: ignore[arg-type]
+        return Geometry(shape, size, color=color, plane_top=plane_top)  # type: ignore[arg-type]
 
     def mesh_path(self, value: Any, raw: _RawType) -> tuple[Path | None, str | None]:
         src, fld = str(raw.source), f"{raw.name}.geometry.mesh"

@@ -153,7 +153,8 @@ class Scene:
     desired_source: "DesiredState | None"
     force_source: "ConstantForces | None"
     body_names: dict[object, str]  # BodyIndex -> 'box' or 'robot/link'
-    footprints: dict[str, tuple] = field(default_factory=dict)  # object -> (outline ids, footprint id): sim/prisms.py
+    footprints: dict[str, tuple] = field(default_factory=dict)  # object -> (outline ids, footprint id, on a plane
+    #                                                              top: `add_object`): sim/prisms.py
     visualized: bool = False  # a Meshcat visualizer publishes from the diagram
 
     # --- contexts -------------------------------------------------------------------------------
@@ -282,12 +283,14 @@ def _spatial_inertia(odb: ObjectDatabase, type_name: str, scale: float = 1.0, li
 
 
 def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDatabase, config: SimConfig,
-               footprints: dict | None = None, support=None, scale: float = 1.0):
+               footprints: dict | None = None, support=None, scale: float = 1.0, planes: dict | None = None):
     """A free body (or anchored geometry for fixtures) with collision and visual geometry. A compliant mesh prism
     gets its outline and, when it has more vertices than the footprint may, a footprint as a second collision
     geometry (`contact_shapes`); so does any free object resting on a `support` (`sim/support.py`);
     `footprints[name]` then says which is which, for `filter_footprints`. A free object's geometry may be
-    `scale` times its type's (`extras.ObjectScale`)."""
+    `scale` times its type's (`extras.ObjectScale`). A fixture box whose type says `plane_top` gets its top as
+    a `HalfSpace` beside the box (`planes[name]` = (box id, plane id)): the plane carries the mesh prisms'
+    footprints, the box everything else (`filter_footprints`)."""
     g = obj_type.geometry
     if g is None:
         raise SceneError(f"object {name!r} of type {obj_type.name!r} has no geometry", source=str(obj_type.source))
@@ -306,11 +309,21 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     outline, footprint = contact_shapes(obj_type, config, support) if not obj_type.fixed else (shape, None)
     gid = plant.RegisterCollisionGeometry(body, X_BG, outline, f"{name}/collision", props)
     gids = [gid]
+    if obj_type.fixed and g.plane_top:
+        from pydrake.geometry import HalfSpace
+
+        top = X_BG @ RigidTransform([0.0, 0.0, g.size[2] / 2])  # the half-space's boundary: its frame's z = 0
+        pid = plant.RegisterCollisionGeometry(body, top, HalfSpace(), f"{name}/plane", props)
+        gids.append(pid)
+        if planes is not None:
+            planes[name] = (gid, pid)
     if footprint is not None:
         fid = plant.RegisterCollisionGeometry(body, X_BG, footprint, f"{name}/footprint", props)
         gids.append(fid)
-        if footprints is not None:
-            footprints[name] = ((gid,), fid)
+        if footprints is not None:  # a support's footprint rests where the object's own bottom would: a plane top
+            #                         carries it only if the object has a footprint of its own (a mesh prism)
+            own = support is None or contact_shapes(obj_type, config)[1] is not None
+            footprints[name] = ((gid,), fid, own)
     plant.RegisterVisualGeometry(body, X_BG, shape, f"{name}/visual", np.array(g.color))
     return (None if obj_type.fixed else body), gids
 
@@ -354,12 +367,15 @@ def contact_shapes(obj_type: ObjectType, config: SimConfig, support=None):
     return exact, (None if support is None else support_shape(obj_type, support, vertices))
 
 
-def filter_footprints(plant, scene_graph, footprints: dict) -> None:
+def filter_footprints(plant, scene_graph, footprints: dict, planes: dict | None = None) -> None:
     """Each object's outline touches only what moves (the robot, other objects), its footprint only what is
-    anchored (fixtures, the floor, geometry welded to the world): one support contact, not two. After Finalize."""
+    anchored (fixtures, the floor, geometry welded to the world): one support contact, not two. A fixture's
+    plane top (`planes`: name -> (box id, plane id)) touches only the footprints it carries (`add_object`), its
+    box everything else. After Finalize."""
     from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
 
-    if not footprints:
+    planes = planes or {}
+    if not footprints and not planes:
         return
     anchored_bodies = {b.index() for b in plant.GetBodiesWeldedTo(plant.world_body())} | {plant.world_body().index()}
     anchored, moving = [], []
@@ -367,11 +383,17 @@ def filter_footprints(plant, scene_graph, footprints: dict) -> None:
         body = plant.get_body(BodyIndex(i))
         (anchored if body.index() in anchored_bodies else moving).extend(plant.GetCollisionGeometriesForBody(body))
     manager = scene_graph.collision_filter_manager()
-    for outline, footprint in footprints.values():
-        manager.Apply(CollisionFilterDeclaration().ExcludeBetween(GeometrySet(list(outline)), GeometrySet(anchored)))
-        others = [g for g in moving if g != footprint]
-        if others:
-            manager.Apply(CollisionFilterDeclaration().ExcludeBetween(GeometrySet([footprint]), GeometrySet(others)))
+
+    def exclude(a: list, b: list) -> None:
+        if a and b:
+            manager.Apply(CollisionFilterDeclaration().ExcludeBetween(GeometrySet(a), GeometrySet(b)))
+    for outline, footprint, _ in footprints.values():
+        exclude(list(outline), anchored)
+        exclude([footprint], [g for g in moving if g != footprint])
+    carried = [f for _, f, own in footprints.values() if own]
+    for box, plane in planes.values():
+        exclude([box], carried)
+        exclude([plane], [g for g in moving if g not in carried])
 
 
 def floor_height(world: WorldState, odb: ObjectDatabase) -> float:
@@ -452,12 +474,12 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
         time_step=config.time_step, contact_model=config.contact_model,
         discrete_contact_approximation=config.discrete_contact_approximation)
     plant, scene_graph = AddMultibodyPlant(plant_config, builder)
-    bodies, geometries, footprints = {}, {}, {}
+    bodies, geometries, footprints, planes = {}, {}, {}, {}
     supports = {e.object: e for e in extras if isinstance(e, SupportPressure)}
     scales = {e.object: e.scale for e in extras if isinstance(e, ObjectScale)}
     for name, obj in world.objects.items():
         body, gids = add_object(plant, name, odb.get(obj.type), obj.pose, odb, config, footprints, supports.get(name),
-                                scales.get(name, 1.0))
+                                scales.get(name, 1.0), planes)
         geometries[name] = gids
         if body is not None:
             bodies[name] = body
@@ -469,7 +491,7 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
     for extra in extras:
         extra.add_to(plant, world, odb, config)
     plant.Finalize()
-    filter_footprints(plant, scene_graph, footprints)
+    filter_footprints(plant, scene_graph, footprints, planes)
     body_names = {b.index(): n for n, b in bodies.items()}
     if instance is not None:
         for index in plant.GetBodyIndices(instance):

@@ -217,6 +217,12 @@ BAD = [
      "a concrete movable type needs physics.mass or physics.density"),
     ("mesh without path", "x: {parent: block, geometry: {shape: mesh}}", "x.geometry.mesh",
      "a mesh geometry needs 'mesh': a path to an OBJ file"),
+    ("plane top not a flag", "x: {parent: block, fixed: true, geometry: {shape: box, size: [1, 1, 1], plane_top: 1}}",
+     "x.geometry.plane_top", "must be true or false, got 1"),
+    ("plane top of a cylinder", "x: {parent: block, fixed: true, geometry: {shape: cylinder, size: [1, 1], "
+     "plane_top: true}}", "x.geometry.plane_top", "plane_top applies to box geometry only, not cylinder"),
+    ("plane top of a free object", "x: {parent: block, geometry: {shape: box, size: [1, 1, 1], plane_top: true}}",
+     "x.geometry.plane_top", "plane_top applies to fixtures only (a free object's top carries nothing as a plane)"),
 ]
 
 

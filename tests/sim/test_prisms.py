@@ -2,6 +2,7 @@
 from the mesh, the footprint that carries the object, a non-convex outline kept non-convex, all through real
 Drake scenes."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -234,10 +235,11 @@ def test_a_coarse_outline_rests_on_its_own_polygon_subdivided():
 
 
 def test_a_coarse_outline_pushes_alike_wherever_the_support_is_meshed(odb_copy, tmp_path):
-    """A 90 mm square pushed off its centre line, the MIT sheet (a rigid box) moved under it by 1e-7 m to 3 cm:
-    Drake's `Convex` rests the square on two bottom tetrahedra (two contact points for the friction moment), and
-    the push ends where the sheet's triangles and rounding decide (0.7 mm, 1.4 deg apart); on its subdivided
-    footprint (16 fan triangles) within a third of that (docs/rollout.md "Why coarse outlines are subdivided")."""
+    """A 90 mm square pushed off its centre line, the MIT sheet moved under it by 1e-7 m to 3 cm: Drake's `Convex`
+    (no footprint: it rests on the sheet's box) rests the square on two bottom tetrahedra (two contact points for
+    the friction moment), and the push ends where the box face's triangles and rounding decide (0.7 mm, 1.4 deg
+    apart); its subdivided footprint (16 fan triangles) rests on the sheet's plane top, which has no triangles:
+    the push is the same wherever the sheet lies (docs/rollout.md "Why coarse outlines are subdivided")."""
     from bridge.recording.telemetry import Telemetry
     from bridge.rollout.rollout import Rollout, run_rollout
     from bridge.sim.simulate import SimOptions
@@ -259,7 +261,61 @@ def test_a_coarse_outline_pushes_alike_wherever_the_support_is_meshed(odb_copy, 
         return np.ptp(finals, axis=0)
 
     footprint, convex = spread("square"), spread("square_drake")
-    assert np.all(footprint < convex / 3) and max(footprint[:2]) < 2e-4 and footprint[2] < math.radians(0.5)
+    assert np.all(footprint < 1e-9) and max(convex[:2]) > 2e-4 and convex[2] > math.radians(0.5)
+
+
+def _settle(scene, world, values=SceneValues(), seconds=0.3):
+    from pydrake.systems.analysis import Simulator
+
+    from bridge.sim.simulate import start_replay
+
+    context, *_ = start_replay(scene, None, world=world, values=values)
+    Simulator(scene.diagram, context).AdvanceTo(seconds)
+    return context
+
+
+def test_a_plane_top_carries_footprints_with_fewer_polygons_and_the_sheets_friction(odb_copy, tmp_path):
+    """The MIT sheet's top is a plane for the footprints (`plane_top`): a 61-gon disk rests on a third fewer
+    contact polygons than on the same sheet's box (no face triangle splits them), and the sheet's friction set
+    for one replay reaches the plane: a sideways push of 0.3 m g slides the disk on a 0.1 sheet (0.14 with the
+    steel's 0.25) and not on a 0.9 one (0.39)."""
+    odb = _odb(odb_copy, tmp_path, {"disk": (circle(), {})})
+    (odb_copy / "types" / "test_prisms.yaml").open("a").write(
+        "box_sheet: {parent: push_surface, geometry: {shape: box, size: [1.0, 1.0, 0.01]}}\n")
+    odb = load_object_database(odb_copy)
+    on_plane = _world("disk")
+    on_box = replace(on_plane, objects=dict(on_plane.objects, surface=replace(on_plane.objects["surface"],
+                                                                              type="box_sheet")))
+    scene_plane, scene_box = build_scene(on_plane, odb, SimConfig()), build_scene(on_box, odb, SimConfig())
+    plane_faces = _faces(scene_plane, _settle(scene_plane, on_plane, seconds=0.02), "obj")
+    box_faces = _faces(scene_box, _settle(scene_box, on_box, seconds=0.02), "obj")
+    assert 0 < plane_faces <= 0.75 * box_faces
+    weight = 7950 * signed_area(circle()) * 2 * HALF * 9.81
+
+    def moved(mu: float) -> float:
+        values = SceneValues().with_object("surface", friction=mu).with_force("obj", (0.3 * weight, 0.0, 0.0))
+        context = _settle(scene_plane, on_plane, values)
+        X = scene_plane.plant.EvalBodyPoseInWorld(scene_plane.plant.GetMyContextFromRoot(context),
+                                                  scene_plane.bodies["obj"])
+        return float(X.translation()[0])
+    assert moved(0.1) > 0.05 and abs(moved(0.9)) < 1e-3
+
+
+def test_a_plane_top_carries_only_what_would_rest_on_the_sheet(odb_copy, tmp_path):
+    """The plane carries the prisms' footprints and nothing else: a steel block (a box of its own, no footprint)
+    set down beside the sheet, level with its top, falls to the floor 10 mm below; a disk there is held by the
+    plane, which is why a sheet is a
+    plane top only when it is wider than anything on it travels (the MIT sheet: a metre, pushes of centimetres)."""
+    odb = _odb(odb_copy, tmp_path, {"disk": (circle(), {})})
+    world = _world("disk").with_poses({"obj": Pose((0.7, 0.0, HALF))})
+    objects = dict(world.objects, block=ObjectState("block", "steel_block", Pose((-0.7, 0.0, 0.0064))))
+    world = WorldState(objects, robot=world.robot, name="beside", names=build_name_map([*objects, "pusher"]))
+    scene = build_scene(world, odb, SimConfig())
+    context = _settle(scene, world, seconds=0.4)
+    plant_ctx = scene.plant.GetMyContextFromRoot(context)
+    z = {n: float(scene.plant.EvalBodyPoseInWorld(plant_ctx, scene.bodies[n]).translation()[2])
+         for n in ("obj", "block")}
+    assert abs(z["obj"] - HALF) < 1e-3 and abs(z["block"] - (-0.01 + 0.0064)) < 1e-3
 
 
 # --- on the MIT recordings -------------------------------------------------------------------------------------
