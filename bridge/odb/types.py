@@ -21,9 +21,9 @@ class Geometry:
     A mesh given as ``dataset://NAME/...`` whose dataset root is unknown has `mesh` None and `unresolved` set.
     `contact` ("prism" | "drake") and `footprint_vertices` choose a compliant mesh prism's contact geometry for this
     type (None: the simulator's settings, `SimConfig.mesh_contact` / `footprint_vertices`; docs/rollout.md).
-    `plane_top` (fixture boxes): the top carries objects' footprints (sim/prisms.py, sim/support.py) as an
-    unbounded plane (a Drake `HalfSpace`): for a sheet wider than anything on it travels, whose box faces'
-    triangles would only split the footprints' contact polygons (docs/rollout.md, "The sheet as a plane").
+    `plane_top` (fixture boxes): the top carries mesh prisms (their soles, sim/prisms.py) as an unbounded plane
+    (a Drake `HalfSpace`): for a sheet wider than anything on it travels, whose box faces' triangles would only
+    split the contact polygons (docs/rollout.md, "The sheet as a plane").
     """
 
     shape: str

@@ -81,42 +81,6 @@ class Slug:
 
 
 @dataclass(frozen=True)
-class SurfaceTiles:
-    """A support slab rebuilt from five welded boxes: a rectangular region `region` = (x0, x1, y0, y1) of another
-    material and four tiles around it, tops level. It stands in for a fixture moved out of the way. Tile edges
-    should lie on the slab's hydroelastic mesh grid (multiples of the resolution hint from the slab's corner),
-    so the tiles are meshed exactly like the slab they replace: then only the friction differs."""
-
-    name: str
-    centre: tuple[float, float, float]  # slab centre (world)
-    size: tuple[float, float, float]  # slab size
-    region: tuple[float, float, float, float]
-    friction: float
-    region_friction: float
-
-    def tiles(self) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float], float]]:
-        """(name, centre, size, friction) of each tile, empty tiles left out."""
-        cx, cy, cz = self.centre
-        sx, sy, sz = self.size
-        X0, X1, Y0, Y1 = cx - sx / 2, cx + sx / 2, cy - sy / 2, cy + sy / 2
-        x0, x1 = (float(np.clip(v, X0, X1)) for v in self.region[:2])
-        y0, y1 = (float(np.clip(v, Y0, Y1)) for v in self.region[2:])
-        boxes = [("patch", (x0, x1, y0, y1), self.region_friction), ("west", (X0, x0, Y0, Y1), self.friction),
-                 ("east", (x1, X1, Y0, Y1), self.friction), ("south", (x0, x1, Y0, y0), self.friction),
-                 ("north", (x0, x1, y1, Y1), self.friction)]
-        out = []
-        for label, (a, b, c, d), mu in boxes:
-            if b - a > 1e-6 and d - c > 1e-6:
-                out.append((f"{self.name}_{label}", ((a + b) / 2, (c + d) / 2, cz), (b - a, d - c, sz), mu))
-        return out
-
-    def add_to(self, plant, world, odb, config) -> None:
-        for name, xyz, size, mu in self.tiles():
-            color = (0.75, 0.85, 0.75, 1.0) if name.endswith("_patch") else (0.9, 0.9, 0.9, 1.0)
-            WeldedShape(name, "box", size, xyz, friction=mu, color=color).add_to(plant, world, odb, config)
-
-
-@dataclass(frozen=True)
 class SurfacePatch:
     """A sheet of another material lying on a support surface over the rectangle `region` = (x0, x1, y0, y1):
     a rigid box whose top is `raised` above the surface's top `top_z`. With `raised` = 0 (the default) the sheet

@@ -11,7 +11,8 @@ rounding. The footprint keeps the pressure uniform over the bottom (every bottom
 mid-height, as in Drake's own) but fans it from the centre, over a polygon of `footprint_vertices` vertices with
 the outline's area and centroid (simplified from a finer outline, subdivided from a coarser one): an isotropic
 quadrature. The rod and other objects still meet the exact outline (Drake's own `Convex` of the file when the
-outline is convex, so that contact is unchanged).
+outline is convex, so that contact is unchanged). On a plane top (`geometry.plane_top`) the object rests on its
+sole, the pyramid over the footprint (`sole_tetrahedra`): the same pressure on fewer contact polygons.
 
 A non-convex outline stays non-convex: it becomes a tetrahedral mesh of its own (one fan from the area centroid
 when the outline is star-shaped from there, else a fan per convex piece of it), where Drake would have used the
@@ -387,7 +388,28 @@ def prism_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray
             lo, hi = min(i, j), max(i, j)
             tets += [(cb, i, j, m), (ct, n + i, n + j, m),
                      (lo, hi, n + hi, m), (lo, n + hi, n + lo, m)]  # the side quad split along lo-bottom to hi-top
-    P = np.array(points, dtype=float)
+    return _oriented(np.array(points, dtype=float), tets)
+
+
+def sole_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, list[tuple[int, int, int, int]]]:
+    """A pyramid over `poly` (star-shaped from its area centroid): the bottom fan and the vertex at mid-height of
+    `prism_tetrahedra`, so on a plane it presses exactly as the prism does, with sides rising to one apex over the
+    centroid. What rests on a plane is every tetrahedron that reaches the bottom, and every side tetrahedron of a
+    closed mesh does (a sliver of a few square micrometres): the prism's two per side quad make 48 contact
+    polygons for 16 edges, the pyramid's one 32, and each polygon is a constraint of the discrete solver."""
+    n = len(poly)
+    c = centroid(poly)
+    points = [(x, y, z0) for x, y in poly] + [(c[0], c[1], z0), (c[0], c[1], z1), (c[0], c[1], 0.5 * (z0 + z1))]
+    cb, apex, m = n, n + 1, n + 2
+    tets = [t for i in range(n) for t in ((cb, i, (i + 1) % n, m), (i, (i + 1) % n, apex, m))]
+    return _oriented(np.array(points, dtype=float), tets)
+
+
+Tets = list[tuple[int, int, int, int]]
+
+
+def _oriented(P: np.ndarray, tets: Tets) -> tuple[np.ndarray, Tets]:
+    """The tetrahedra with positive volume (the fourth vertex on the positive side of the first three's face)."""
     oriented = []
     for t in tets:
         a, b, cc, d = (P[k] for k in t)
@@ -407,11 +429,11 @@ def vtk_text(points: np.ndarray, tets: list[tuple[int, int, int, int]], title: s
     return "\n".join(lines) + "\n"
 
 
-def prism_mesh(poly: np.ndarray, z0: float, z1: float, name: str):
-    """A Drake `Mesh` (in memory, VTK) of the prism over `poly`."""
+def prism_mesh(poly: np.ndarray, z0: float, z1: float, name: str, sole: bool = False):
+    """A Drake `Mesh` (in memory, VTK) of the prism over `poly`, or of the pyramid over it (`sole_tetrahedra`)."""
     from pydrake.common import MemoryFile
     from pydrake.geometry import InMemoryMesh, Mesh
 
-    points, tets = prism_tetrahedra(poly, z0, z1)
+    points, tets = (sole_tetrahedra if sole else prism_tetrahedra)(poly, z0, z1)
     data = vtk_text(points, tets, name).encode()
     return Mesh(InMemoryMesh(mesh_file=MemoryFile(data, ".vtk", f"{name}.vtk")), 1.0)

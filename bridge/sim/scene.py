@@ -153,8 +153,8 @@ class Scene:
     desired_source: "DesiredState | None"
     force_source: "ConstantForces | None"
     body_names: dict[object, str]  # BodyIndex -> 'box' or 'robot/link'
-    footprints: dict[str, tuple] = field(default_factory=dict)  # object -> (outline ids, footprint id, on a plane
-    #                                                              top: `add_object`): sim/prisms.py
+    footprints: dict[str, tuple] = field(default_factory=dict)  # object -> (outline ids, footprint id, sole id
+    #                                                              or None): `filter_footprints`
     visualized: bool = False  # a Meshcat visualizer publishes from the diagram
 
     # --- contexts -------------------------------------------------------------------------------
@@ -289,8 +289,8 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     geometry (`contact_shapes`); so does any free object resting on a `support` (`sim/support.py`);
     `footprints[name]` then says which is which, for `filter_footprints`. A free object's geometry may be
     `scale` times its type's (`extras.ObjectScale`). A fixture box whose type says `plane_top` gets its top as
-    a `HalfSpace` beside the box (`planes[name]` = (box id, plane id)): the plane carries the mesh prisms'
-    footprints, the box everything else (`filter_footprints`)."""
+    a `HalfSpace` beside the box (`planes[name]` = (box id, plane id)): the plane carries the mesh prisms' soles,
+    the box everything else (`filter_footprints`)."""
     g = obj_type.geometry
     if g is None:
         raise SceneError(f"object {name!r} of type {obj_type.name!r} has no geometry", source=str(obj_type.source))
@@ -306,7 +306,7 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
         X_BG = RigidTransform([0.0, 0.0, lift])
     shape = drake_shape(obj_type)
     props = proximity(obj_type, config)
-    outline, footprint = contact_shapes(obj_type, config, support) if not obj_type.fixed else (shape, None)
+    outline, footprint, sole = contact_shapes(obj_type, config, support) if not obj_type.fixed else (shape, None, None)
     gid = plant.RegisterCollisionGeometry(body, X_BG, outline, f"{name}/collision", props)
     gids = [gid]
     if obj_type.fixed and g.plane_top:
@@ -320,10 +320,10 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     if footprint is not None:
         fid = plant.RegisterCollisionGeometry(body, X_BG, footprint, f"{name}/footprint", props)
         gids.append(fid)
-        if footprints is not None:  # a support's footprint rests where the object's own bottom would: a plane top
-            #                         carries it only if the object has a footprint of its own (a mesh prism)
-            own = support is None or contact_shapes(obj_type, config)[1] is not None
-            footprints[name] = ((gid,), fid, own)
+        sid = None if sole is None else plant.RegisterCollisionGeometry(body, X_BG, sole, f"{name}/sole", props)
+        gids += [sid] if sid is not None else []
+        if footprints is not None:
+            footprints[name] = ((gid,), fid, sid)
     plant.RegisterVisualGeometry(body, X_BG, shape, f"{name}/visual", np.array(g.color))
     return (None if obj_type.fixed else body), gids
 
@@ -345,33 +345,45 @@ def contact_mode(obj_type: ObjectType, config: SimConfig) -> tuple[str, int]:
 
 
 def contact_shapes(obj_type: ObjectType, config: SimConfig, support=None):
-    """(outline, footprint or None): the collision shapes of a free object. Only compliant mesh prisms differ from
-    `drake_shape` (mode "prism", sim/prisms.py): a convex outline keeps Drake's `Convex` of the file, a non-convex
-    one (`convex: false`) becomes a tetrahedral mesh of its own; a footprint (at most `footprint_vertices`
-    vertices, the outline's area and centroid, fanned from its centre) is added when the outline has more. A
-    `support` (`sim/support.py`) replaces the footprint by the one it describes, for any flat-bottomed object."""
-    from .prisms import contact_outlines, mesh_prism, prism_mesh
-    from .support import support_shape
+    """(outline, footprint or None, sole or None): the collision shapes of a free object. Only compliant mesh
+    prisms differ from `drake_shape` (mode "prism", sim/prisms.py): a convex outline keeps Drake's `Convex` of the
+    file, a non-convex one (`convex: false`) becomes a tetrahedral mesh of its own; a footprint (at most
+    `footprint_vertices` vertices, the outline's area and centroid, fanned from its centre) is added when the
+    outline has more, and a sole, the pyramid over the footprint (`prisms.sole_tetrahedra`), for a plane top to
+    carry (`filter_footprints`). A `support` (`sim/support.py`) replaces the footprint by the one it describes,
+    for any flat-bottomed object, and the sole by its pyramid where the object has a footprint of its own."""
+    from .prisms import centroid, contact_outlines, is_star, mesh_prism, prism_mesh
+    from .support import support_polygon
 
     g = obj_type.geometry
     shape = drake_shape(obj_type)
     mode, vertices = contact_mode(obj_type, config)
     prism = mesh_prism(g.mesh, g.scale) if g.shape == "mesh" and mode == "prism" else None
-    exact = shape
+    exact, poly, name = shape, None, f"{obj_type.name}_footprint"
+    own = False  # the object has a footprint of its own: a plane top carries it, or its support's
     if prism is not None and obj_type.physics.hydroelastic_modulus is not None:
         outline, footprint = contact_outlines(g.mesh, g.scale, g.convex, vertices)
         if outline is not None:
             exact = prism_mesh(outline, prism.z0, prism.z1, f"{obj_type.name}_outline")
-        if footprint is not None and support is None:
-            return exact, prism_mesh(footprint, prism.z0, prism.z1, f"{obj_type.name}_footprint")
-    return exact, (None if support is None else support_shape(obj_type, support, vertices))
+        if footprint is not None:
+            own, poly, z0, z1 = True, footprint, prism.z0, prism.z1
+    if support is not None:
+        (poly, z0, z1), name = support_polygon(obj_type, support, vertices), f"{obj_type.name}_support"
+    if poly is None:
+        return exact, None, None
+    # the pyramid needs a polygon star-shaped from its centroid; another (a non-convex outline simplified) is its
+    # own sole, a prism
+    sole = prism_mesh(poly, z0, z1, f"{name}_sole", sole=is_star(poly, centroid(poly))) if own else None
+    return exact, prism_mesh(poly, z0, z1, name), sole
 
 
 def filter_footprints(plant, scene_graph, footprints: dict, planes: dict | None = None) -> None:
     """Each object's outline touches only what moves (the robot, other objects), its footprint only what is
     anchored (fixtures, the floor, geometry welded to the world): one support contact, not two. A fixture's
-    plane top (`planes`: name -> (box id, plane id)) touches only the footprints it carries (`add_object`), its
-    box everything else. After Finalize."""
+    plane top (`planes`: name -> (box id, plane id)) touches only the soles (`footprints`: name -> (outline ids,
+    footprint id, sole id or None)), and a sole only the plane tops, where the footprint does not meet their
+    boxes: posts and other fixtures meet the footprint's upright sides, not the sole's sloping ones. After
+    Finalize."""
     from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
 
     planes = planes or {}
@@ -387,13 +399,14 @@ def filter_footprints(plant, scene_graph, footprints: dict, planes: dict | None 
     def exclude(a: list, b: list) -> None:
         if a and b:
             manager.Apply(CollisionFilterDeclaration().ExcludeBetween(GeometrySet(a), GeometrySet(b)))
-    for outline, footprint, _ in footprints.values():
+    boxes, plane_ids = [b for b, _ in planes.values()], [p for _, p in planes.values()]
+    soles = [s for *_, s in footprints.values() if s is not None]
+    for outline, footprint, sole in footprints.values():
         exclude(list(outline), anchored)
-        exclude([footprint], [g for g in moving if g != footprint])
-    carried = [f for _, f, own in footprints.values() if own]
-    for box, plane in planes.values():
-        exclude([box], carried)
-        exclude([plane], [g for g in moving if g not in carried])
+        exclude([footprint], [g for g in moving if g != footprint] + (boxes if sole is not None else []))
+        if sole is not None:
+            exclude([sole], [g for g in moving + anchored if g != sole and g not in plane_ids])
+    exclude(plane_ids, [g for g in moving if g not in soles])
 
 
 def floor_height(world: WorldState, odb: ObjectDatabase) -> float:
