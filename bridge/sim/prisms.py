@@ -32,6 +32,7 @@ from ..odb.geometry import mesh_data
 MODES = ("prism", "drake")
 TOLERANCE = 1e-7  # m: vertices this close are one, points this far off a line are on it
 SAME_POINT = 1e-5  # m: a top vertex this close (x, y) to each bottom outline vertex makes the mesh a prism
+Tets = list[tuple[int, int, int, int]]  # tetrahedra as four vertex indices
 
 
 @dataclass(frozen=True, eq=False)
@@ -367,7 +368,7 @@ def _merge(p: list[int], q: list[int]) -> list[int] | None:
 
 
 # --- tetrahedral meshes --------------------------------------------------------------------------------------
-def prism_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, list[tuple[int, int, int, int]]]:
+def prism_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, Tets]:
     """A tetrahedral mesh of the prism over `poly` (counter-clockwise, simple): one piece when the polygon is
     star-shaped from its area centroid, else its convex pieces; each piece a fan of tetrahedra ending at one
     vertex at the piece's centroid, mid-height (bottom and top fanned from the piece's centre, side quads split
@@ -377,7 +378,7 @@ def prism_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray
     c = centroid(poly)
     pieces = [list(range(n))] if is_star(poly, c) else convex_pieces(poly)
     points = [(x, y, z0) for x, y in poly] + [(x, y, z1) for x, y in poly]
-    tets: list[tuple[int, int, int, int]] = []
+    tets: Tets = []
     zm = 0.5 * (z0 + z1)
     for piece in pieces:
         pc = centroid(poly[piece]) if len(pieces) > 1 else c
@@ -391,7 +392,7 @@ def prism_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray
     return _oriented(np.array(points, dtype=float), tets)
 
 
-def sole_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, list[tuple[int, int, int, int]]]:
+def sole_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, Tets]:
     """A pyramid over `poly` (star-shaped from its area centroid): the bottom fan and the vertex at mid-height of
     `prism_tetrahedra`, so on a plane it presses exactly as the prism does, with sides rising to one apex over the
     centroid. What rests on a plane is every tetrahedron that reaches the bottom, and every side tetrahedron of a
@@ -405,8 +406,6 @@ def sole_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray,
     return _oriented(np.array(points, dtype=float), tets)
 
 
-Tets = list[tuple[int, int, int, int]]
-
 
 def _oriented(P: np.ndarray, tets: Tets) -> tuple[np.ndarray, Tets]:
     """The tetrahedra with positive volume (the fourth vertex on the positive side of the first three's face)."""
@@ -417,7 +416,7 @@ def _oriented(P: np.ndarray, tets: Tets) -> tuple[np.ndarray, Tets]:
     return P, oriented
 
 
-def vtk_text(points: np.ndarray, tets: list[tuple[int, int, int, int]], title: str = "bridge prism") -> str:
+def vtk_text(points: np.ndarray, tets: Tets, title: str = "bridge prism") -> str:
     """A legacy ASCII VTK unstructured grid of tetrahedra (what Drake reads for a compliant `Mesh`)."""
     lines = ["# vtk DataFile Version 3.0", title[:200], "ASCII", "DATASET UNSTRUCTURED_GRID",
              f"POINTS {len(points)} double"]

@@ -84,17 +84,9 @@ def bottom_polygon(obj_type: ObjectType, vertices: int) -> tuple[np.ndarray, flo
     return (outline if footprint is None else footprint), prism.z0, prism.z1
 
 
-def support_shape(obj_type: ObjectType, support: SupportPressure, vertices: int, sole: bool = False):
-    """The Drake shape the object rests on under `support` (a compliant prism mesh, uniform pressure; its pyramid
-    with `sole`, `prisms.sole_tetrahedra`)."""
-    from .prisms import prism_mesh
-
-    moved, z0, z1 = support_polygon(obj_type, support, vertices)
-    return prism_mesh(moved, z0, z1, f"{obj_type.name}_support{'_sole' if sole else ''}", sole=sole)
-
-
 def support_polygon(obj_type: ObjectType, support: SupportPressure, vertices: int) -> tuple[np.ndarray, float, float]:
-    """(the polygon, bottom z, top z) the object rests on under `support`."""
+    """(the polygon, bottom z, top z) the object rests on under `support`: a compliant prism over it carries the
+    object with uniform pressure (`scene.contact_shapes`)."""
     from .prisms import centroid, signed_area
 
     if obj_type.physics.hydroelastic_modulus is None:
