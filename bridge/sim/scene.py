@@ -320,8 +320,10 @@ def add_object(plant, name: str, obj_type: ObjectType, pose: Pose, odb: ObjectDa
     if footprint is not None:
         fid = plant.RegisterCollisionGeometry(body, X_BG, footprint, f"{name}/footprint", props)
         gids.append(fid)
-        sid = None if sole is None else plant.RegisterCollisionGeometry(body, X_BG, sole, f"{name}/sole", props)
-        gids += [sid] if sid is not None else []
+        sid = None
+        if sole is not None:
+            sid = plant.RegisterCollisionGeometry(body, X_BG, sole, f"{name}/sole", props)
+            gids.append(sid)
         if footprints is not None:
             footprints[name] = ((gid,), fid, sid)
     plant.RegisterVisualGeometry(body, X_BG, shape, f"{name}/visual", np.array(g.color))

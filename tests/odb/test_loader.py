@@ -221,6 +221,8 @@ BAD = [
      "x.geometry.plane_top", "must be true or false, got 1"),
     ("plane top of a cylinder", "x: {parent: block, fixed: true, geometry: {shape: cylinder, size: [1, 1], "
      "plane_top: true}}", "x.geometry.plane_top", "plane_top applies to box geometry only, not cylinder"),
+    ("plane top of a mesh", "x: {parent: block, fixed: true, geometry: {shape: mesh, mesh: m.obj, plane_top: true}}",
+     "x.geometry.plane_top", "plane_top applies to box geometry only, not mesh"),
     ("plane top of a free object", "x: {parent: block, geometry: {shape: box, size: [1, 1, 1], plane_top: true}}",
      "x.geometry.plane_top", "plane_top applies to fixtures only (a free object's top carries nothing as a plane)"),
 ]
