@@ -43,6 +43,7 @@ from .locate import Localisation, locate
 from .outline import FrameFit, frame_evidence
 from .runs import Run, Runner, chi2_of
 from .search import Evaluator, FitResult, bic, correlation_time, differenced, fit, pose_error_of, screen
+from .work import WorkFit, work_fit
 
 MAX_FULL_FITS = 4  # candidates fitted fully after screening
 NOISE_RMS = 1.5  # a model whose normalised RMS is below this sits at the noise floor
@@ -163,6 +164,7 @@ class Identification:
     rollouts: dict[str, int] = field(default_factory=dict)  # {simulated, cached}: of `simulations`, run and cached
     floor: str | None = None  # the ordinary model every effect was cross-validated against (None: no cross-validation)
     frame: FrameFit | None = None  # the recorded frame the pushing samples imply (`outline`), before any simulation
+    work: WorkFit | None = None  # the friction and slope the work the robot did implies (`work`), before any simulation
 
     @property
     def partial(self) -> bool:
@@ -240,12 +242,18 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         say(notes[-1])
     gaps = loader.contact_fit()
     measured = _measured(loader, world)
+    # the work the robot did on the object: the friction it slid against and the slope it climbed (a seed)
+    work = work_fit([runner.prepared[i].trial for i in train], odb, ranked_objects[0])
+    if work is not None:
+        notes.append(work.sentence())
+        say(notes[-1])
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects if o.object == ranked_objects[0]), world, odb,
                         loc.force_scale(), len(loader.inside) / max(1, len(loader.readings)),
                         loader.offset_estimate(), loader.offset_evident,
                         frame.values() if frame is not None and frame.evident else None,
                         gaps.inflation if gaps is not None and gaps.inflation_evident else None,
-                        gaps.latency if gaps is not None and gaps.latency_evident else None)
+                        gaps.latency if gaps is not None and gaps.latency_evident else None,
+                        work.seed if work is not None else None)
     none = Scored("none", "world", {}, {}, (), 0, none_chi2, n, error=pose_error_of(loc.runs))
     say(f"nominal: rms {none.rms:.1f} sigma over {len(train)} recording(s); "
         f"{sum(o.significant for o in loc.objects)} (recording, object) pair(s) above the noise floor"
@@ -259,7 +267,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         scored = _held_out(runner, held_out, scored)
         return Identification("none", tuple(scored), loc, _names(runner, train), _names(runner, held_out), 1.0, (),
                               tuple(notes), runner.simulations - sims0, time.perf_counter() - started, held_loc,
-                              loader=loader, rollouts=rollouts(), frame=frame)
+                              loader=loader, rollouts=rollouts(), frame=frame, work=work)
 
     allowed = set(options.effects or EFFECTS) - {"none"}
     focus = ranked_objects[:1]
@@ -403,7 +411,8 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                      f"{runner.failures[0][0]}: {runner.failures[0][1]})")
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
-                          held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame)
+                          held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame,
+                          work)
 
 
 def _fit_key(s: Scored) -> tuple[str, str | None]:

@@ -81,6 +81,8 @@ def loader_json(ident: Identification) -> dict[str, Any]:
     if ident.frame is not None:
         out["evidence"]["frame"] = {**ident.frame.to_json(),
                                     "sentence": ident.frame.sentence() if ident.frame.evident else None}
+    if ident.work is not None:
+        out["evidence"]["work"] = {**ident.work.to_json(), "sentence": ident.work.sentence()}
     return out
 
 
@@ -195,9 +197,9 @@ def loader_markdown(data: Mapping[str, Any]) -> list[str]:
                 continue
             rows.append(f"| {entry['recording']} | {a['kind']} | {what} |")
     evidence = (data.get("evidence") or {}).get("start_inside") or {}
-    frame = ((data.get("evidence") or {}).get("frame") or {}).get("sentence")
+    read = [((data.get("evidence") or {}).get(key) or {}).get("sentence") for key in ("frame", "work")]
     sentences = ([evidence["sentence"]] if evidence.get("sentence") else []) + \
-        list(((data.get("evidence") or {}).get("contact") or {}).get("sentences") or ()) + ([frame] if frame else [])
+        list(((data.get("evidence") or {}).get("contact") or {}).get("sentences") or ()) + [s for s in read if s]
     if not rows and not sentences:
         return []
     lines = ["## What the loader changed, and what the recordings say before any simulation", ""]

@@ -60,6 +60,9 @@ class Evidence:
     # the latency the contact gaps of recordings pushed at different speeds measure (s, `loader.ContactFit`), when
     # they make it evident (None otherwise)
     latency: float | None = None
+    # the downhill slope (sin(theta) x the downhill unit vector, world x-y) that balances the work the robot did on
+    # the object (`diagnosis.work`: a seed, no measurement), when it is pinned and not negligible (None otherwise)
+    slope: tuple[float, float] | None = None
 
     def significant(self) -> tuple[Mapping[str, Any], ...]:
         return tuple(f for f in self.features if f.get("significant"))

@@ -44,6 +44,19 @@ class SurfaceTilt(Effect):
         tilt = min(1.0, 2.0 * evidence.mean("tilt"))
         return min(1.0, 0.15 + 0.5 * consistency * early + 0.35 * tilt)
 
+    def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
+        """The level surface and, where the work the robot did reads a slope (`Evidence.slope`, `diagnosis.work`),
+        that slope: a tilt's drift is a small share of a mismatched world's residual, so one Gauss-Newton step from
+        level goes where the rest of the mismatch pulls (independent MuJoCo rect1, 1 deg: screened last from level,
+        named and recovered to 0.2 deg from the work's seed)."""
+        null = self.null_values(evidence.world, evidence.odb, target)
+        if evidence.slope is None:
+            return [null]
+        x, y = pname("surface_slope_x", target), pname("surface_slope_y", target)
+        lo, hi = next(p.bounds for p in self.parameters(evidence.world, evidence.odb, target) if p.name == x)
+        sx, sy = (float(v) for v in np.clip(evidence.slope, lo, hi))
+        return [null, {**null, x: sx, y: sy}]
+
     # --- the proof: the fixture really rotated, about a point of its top away from its centre ------------------
     def draw_truth(self, scene, odb, rng, magnitude, sign):
         theta = math.radians(ANGLES[magnitude])
