@@ -34,7 +34,6 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.signal import savgol_filter
 
-from ..recording.mitpush import signed_distance
 from .loader import NOISE_SIGMAS
 from .outline import rod_xy
 
@@ -47,7 +46,6 @@ MIN_SLOPE = 0.0017  # rad: below this a slope is negligible (`params.kinds.Surfa
 PINNED = 0.0175  # rad (1 deg): the largest 1 sigma of a slope component that still seeds a search; the tilts that
 #                  matter are 0.5-2 deg, and pushes along one direction leave the other unpinned (sigma of radians)
 OUTLIER = 4.0  # windows off the fit by more than this many robust deviations are left out of the refit
-GRID = 24  # footprint sample points per side of the outline's bounding box
 
 
 @dataclass(frozen=True)
@@ -118,20 +116,12 @@ def _g(value: float) -> float:
     return float(f"{value:.4g}")
 
 
-def footprint_points(outline: np.ndarray, grid: int = GRID) -> np.ndarray:
-    """Points spread evenly over the outline's inside (body frame, m: about the point the recording tracks)."""
-    outline = np.asarray(outline, dtype=float)
-    lo, hi = outline.min(axis=0), outline.max(axis=0)
-    xs, ys = np.meshgrid(np.linspace(lo[0], hi[0], grid), np.linspace(lo[1], hi[1], grid))
-    points = np.column_stack([xs.ravel(), ys.ravel()])
-    return points[signed_distance(points, outline) < 0]
-
-
 def windows_of(times: np.ndarray, xy: np.ndarray, yaw: np.ndarray, rod: np.ndarray, force: np.ndarray,
-               footprint: np.ndarray, mass: float) -> np.ndarray:
+               footprint: tuple[np.ndarray, np.ndarray], mass: float) -> np.ndarray:
     """Rows (work - kinetic energy change, m g x integral of D, m g x displacement x, y) over the WINDOW-long
     windows of one push while its object slides; the arrays are the object's track, the rod's centre and the force
-    on the object (world x-y), all at `times`."""
+    on the object (world x-y), all at `times`; `footprint` the uniform quadrature of its bottom (points in the body
+    frame, weights: `sim.anisotropy.footprint_points`)."""
     if len(times) < 8 or times[-1] - times[0] < 2 * SMOOTHING:
         return np.zeros((0, 4))
     grid = np.arange(times[0], times[-1], 1.0 / RATE)
@@ -143,11 +133,13 @@ def windows_of(times: np.ndarray, xy: np.ndarray, yaw: np.ndarray, rod: np.ndarr
     w = savgol_filter(yaw, length, 2, deriv=1, delta=1.0 / RATE)
     arm = rod - xy
     power = np.sum(force * (v + w[:, None] * np.column_stack([-arm[:, 1], arm[:, 0]])), axis=1)
+    points, weights = footprint
     c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-    px = footprint[:, 0] * c - footprint[:, 1] * s
-    py = footprint[:, 0] * s + footprint[:, 1] * c
-    sliding = np.mean(np.hypot(v[:, :1] - w[:, None] * py, v[:, 1:] + w[:, None] * px), axis=1)
-    inertia = mass * float(np.mean(np.sum((footprint - footprint.mean(axis=0)) ** 2, axis=1)))
+    px = points[:, 0] * c - points[:, 1] * s
+    py = points[:, 0] * s + points[:, 1] * c
+    sliding = np.hypot(v[:, :1] - w[:, None] * py, v[:, 1:] + w[:, None] * px) @ weights
+    spread = points - weights @ points
+    inertia = mass * float(weights @ np.sum(spread ** 2, axis=1))
     kinetic = 0.5 * mass * np.sum(v ** 2, axis=1) + 0.5 * inertia * w ** 2
     speed = np.hypot(*v.T) + math.sqrt(inertia / mass) * np.abs(w)
     moving = np.nonzero(speed > MOVING_SHARE * np.percentile(speed, 90))[0] if np.any(speed > 0) else []
@@ -204,6 +196,7 @@ def work_fit(trials: Sequence, odb, obj: str) -> WorkFit | None:
     """The `WorkFit` of `obj` over `trials` (`rollout.trials.Trial`); None without a planar pusher, a force track,
     a prism outline or windows enough (four recordings or more that pushed it: three unknowns, clustered)."""
     from ..rollout.trials import shape_outline
+    from ..sim.anisotropy import footprint_points
     from ..sim.shapes import mass_properties
 
     if not trials or obj not in trials[0].world.objects:

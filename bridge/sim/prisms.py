@@ -406,7 +406,6 @@ def sole_tetrahedra(poly: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray,
     return _oriented(np.array(points, dtype=float), tets)
 
 
-
 def _oriented(P: np.ndarray, tets: Tets) -> tuple[np.ndarray, Tets]:
     """The tetrahedra with positive volume (the fourth vertex on the positive side of the first three's face)."""
     oriented = []
