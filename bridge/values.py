@@ -13,6 +13,8 @@ import numpy as np
 
 from .errors import BridgeError
 
+GRAVITY = 9.81  # m/s^2: Drake's MultibodyPlant default, which no scene changes
+
 _IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
 
 

@@ -319,6 +319,9 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         ev.runs_many([_model(space, x) for x in starts])  # one batch on the workers
         chis = [ev.chi2(_model(space, x)) for x in starts]
         x, chi2 = starts[int(np.argmin(chis))], float(min(chis))
+        region = effect.fit_region(space.as_dict(space.from_normal(x)), c.target)
+        if region:  # the step stays near the best seed (same origin and steps: x keeps its coordinates)
+            space = _space(friction_params, effect, c.target, world, odb, measured, region)
         # from the best start, one step in every coordinate; for an effect without a useful gradient at its null
         # (a post, a mass) also one with only the friction coefficients moved to suit the seed (a heavier object
         # pushes back harder with less friction)
@@ -353,7 +356,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         if limit.expired():
             break
         effect = get_effect(c.effect)
-        space = _space(friction_params, effect, c.target, world, odb, measured)
+        space = _space(friction_params, effect, c.target, world, odb, measured, effect.fit_region(c.start, c.target))
         # start from the screened point, or from the fitted friction with the screened effect if that is better
         starts = [space.to_normal(c.start), space.to_normal({**c.start, **base_fit.values()})]
         chis = [ev.chi2(_model(space, x)) for x in starts]
@@ -462,13 +465,21 @@ def _with_friction(x: np.ndarray, friction_x: np.ndarray | None) -> np.ndarray:
 
 
 def _space(friction: Sequence[Parameter], effect, target: str, world, odb,
-           measured: dict[str, tuple[float, float]] | None = None) -> ParameterSet:
+           measured: dict[str, tuple[float, float]] | None = None,
+           region: dict[str, tuple[float, float]] | None = None) -> ParameterSet:
     """The friction coefficients and an effect's parameters, searched together; an effect parameter that a
-    direct measurement gives (`_measured`: name -> (value, 1 sigma)) is held at it."""
+    direct measurement gives (`_measured`: name -> (value, 1 sigma)) is held at it, one the `region` names
+    (`Effect.fit_region`) kept within its bounds there too."""
     from dataclasses import replace
 
-    measured = measured or {}
-    own = tuple(replace(p, value=measured[p.name][0], std=measured[p.name][1]) if p.name in measured else p
+    measured, region = measured or {}, region or {}
+
+    def bounded(p: Parameter) -> Parameter:
+        if p.name not in region or not p.free:
+            return p
+        lo, hi = max(p.bounds[0], region[p.name][0]), min(p.bounds[1], region[p.name][1])
+        return replace(p, bounds=(lo, hi)) if lo < hi else p
+    own = tuple(replace(p, value=measured[p.name][0], std=measured[p.name][1]) if p.name in measured else bounded(p)
                 for p in effect.parameters(world, odb, target))
     return ParameterSet(tuple(friction) + own, f"{effect.name} on {target}")
 
@@ -576,7 +587,8 @@ def _fit_reason(s: Scored, none: Scored, friction: Scored | None, world, odb) ->
         return s.contradicted
     if s.at_bound:
         return (f"{s.effect}'s fit ended on the bound of {_fmt(s.at_bound)} and asks for more: the recordings want "
-                f"values outside the physical range, so this model does not describe them (not a finding)")
+                "values outside the physical range (for a place: beyond the reach of the evidence that seeded it), so "
+                "this model does not describe them (not a finding)")
     if s.effect not in ("none", "friction") and get_effect(s.effect).negligible(world, odb, s.target, s.params):
         return f"{s.effect}'s parameters ({_fmt(s.params)}) are too small to matter physically"
     base = none if s.effect == "friction" or friction is None else friction

@@ -34,10 +34,10 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.signal import savgol_filter
 
+from ..values import GRAVITY
 from .loader import NOISE_SIGMAS
 from .outline import rod_xy
 
-GRAVITY = 9.81
 RATE = 100.0  # Hz: the tracks are resampled here before differencing (the noise of 250 Hz poses would dominate D)
 SMOOTHING = 0.07  # s: the Savitzky-Golay window of the velocities (a push's speed changes over tenths of a second)
 WINDOW = 0.2  # s: the work is balanced over windows this long (short against a push, long against the smoothing)

@@ -39,13 +39,13 @@ from ..sim.shapes import mass_properties
 from ..sim.anisotropy import AnisotropicFriction, FrictionField
 from ..sim.friction import combined_friction, pair_coefficients
 from ..sim.support import SupportPressure
-from ..values import Pose
+from ..values import GRAVITY, Pose
 from ..world import WorldState
 from .surfaces import footprint_half, movable_objects, support_of, supported_by, surface_top
 
 TYPE_PREFIX = "type:"
-G = 9.81
 OBSTACLE_RADIUS = 0.015  # m: the post `obstacle_x`/`obstacle_y` place
+OBSTACLE_FRICTION = 0.5  # the post's own coefficient unless `obstacle_mu` says (Drake combines it with the object's)
 PATCH_RAISED = 1.0e-6  # m: the sheet carries what stands on it (objects sink ~0.6 um), its edge is no step
 ANY = PhysicalRange(-math.inf, math.inf, why="any finite number")
 MASS_RATIO = 100.0  # a mass more than this many times the object database's (or less than its share) is another object
@@ -381,7 +381,7 @@ class _ForceComponent(Kind):
         return 0.0
 
     def _weight(self, world, odb, target) -> float:
-        return float(mass_properties(odb, _type_name(world, odb, target)).mass) * G
+        return float(mass_properties(odb, _type_name(world, odb, target)).mass) * GRAVITY
 
     def bounds(self, world, odb, target):
         w = self._weight(world, odb, target)
@@ -662,10 +662,12 @@ def _extent(world: WorldState, odb: ObjectDatabase, target: str) -> tuple[float,
 
 
 class Obstacle(Family):
-    """A welded upright post of radius `OBSTACLE_RADIUS` at (x, y) on the surface, taller than anything on it."""
+    """A welded upright post of radius `OBSTACLE_RADIUS` at (x, y) on the surface, taller than anything on it, with
+    its own friction coefficient `mu` (an unseen obstacle's surface is as unknown as its place: whether an object
+    slides past it or pivots on it depends on that coefficient)."""
 
     name = "hidden_obstacle"
-    members = {"x": "obstacle_x", "y": "obstacle_y"}
+    members = {"x": "obstacle_x", "y": "obstacle_y", "mu": "obstacle_mu"}
 
     @classmethod
     def realise(cls, values, target, rollout, odb):
@@ -677,7 +679,8 @@ class Obstacle(Family):
                        for n in movable_objects(world, odb)] + [top + 0.05])
         height = tallest - top + 0.05
         return rollout.with_extras(WeldedShape("hidden_obstacle", "cylinder", (OBSTACLE_RADIUS, height),
-                                               (x, y, top + height / 2), friction=0.5))
+                                               (x, y, top + height / 2),
+                                               friction=values.get("mu", OBSTACLE_FRICTION)))
 
 
 class _Place(_Member):
@@ -719,6 +722,20 @@ class ObstacleX(_ObstacleAxis):
 
 class ObstacleY(_ObstacleAxis):
     name, component, axis, doc = "obstacle_y", "y", 1, "a post the world model lacks: its centre, world y"
+
+
+class ObstacleMu(_Member):
+    name, component, family, physical = "obstacle_mu", "mu", Obstacle, FRICTION
+    doc = "a post the world model lacks: its friction coefficient (Drake combines it with the object's)"
+
+    def null(self, world, odb, target):
+        return OBSTACLE_FRICTION
+
+    def bounds(self, world, odb, target):
+        return 0.02, 2.0
+
+    def step(self, world, odb, target):
+        return 0.1
 
 
 class Patch(Family):
@@ -1091,7 +1108,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Mass(), MassSpread(), ComX(), ComY(), ComZ(), ForceX(), ForceY(), ForceZ(),
     Latency(), JointOffset(),
     SurfaceSlopeX(), SurfaceSlopeY(), SurfaceDz(),
-    ObstacleX(), ObstacleY(),
+    ObstacleX(), ObstacleY(), ObstacleMu(),
     PatchCx(), PatchCy(), PatchHalf(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
     AnisoC(), AnisoS(), FieldGx(), FieldGy(),

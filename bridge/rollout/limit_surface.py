@@ -38,10 +38,10 @@ from ..recording.mitpush import PUSHER_RADIUS
 from ..sim.prisms import outline_of
 from ..sim.prisms import centroid, signed_area
 from ..sim.simulate import ReplayResult
+from ..values import GRAVITY
 from .compare import DEFAULT_C, PoseError, error_of_residuals, least_squares_vector, observed_residuals
 from .trials import Trial
 
-GRAVITY = 9.81  # m/s^2
 MU_P_BOUNDS = (0.01, 1.5)  # pusher-object friction a fit may choose
 C_SCALE_BOUNDS = (0.3, 1.5)  # factor on the uniform pressure's c a fit may choose (0: all at the centre)
 _EPS = 1e-12

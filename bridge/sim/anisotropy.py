@@ -45,8 +45,8 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
 from ..errors import SceneError
+from ..values import GRAVITY
 
-G = 9.81
 SLIP_SPEED = 0.005  # m/s: below this the added force fades (regularisation; see the stability note above)
 REACH = 0.001  # m: the object's bottom within this of the support's top is resting on it
 MAX_ANISOTROPY = 0.9  # |a| < 1: a coefficient across the grain must stay positive
@@ -182,7 +182,7 @@ class SlipFriction(LeafSystem):
             V = plant.EvalBodySpatialVelocityInWorld(pc, body)
             w, v = V.rotational(), V.translational()
             v_points = v[None, :] + np.cross(w[None, :], r)
-            load = body.get_mass(pc) * G * weights
+            load = body.get_mass(pc) * GRAVITY * weights
             f2 = slip_force(M, extra.mu, load, v_points[:, :2], factor=extra.factor(p[None, :2] + r[:, :2]))
             f = np.column_stack([f2, np.zeros(len(f2))])
             applied = ExternallyAppliedSpatialForce()

@@ -9,6 +9,7 @@ from bridge.diagnosis.effects import EFFECTS, Effect, get_effect, pname, registe
 from bridge.diagnosis.pipeline import save_scene_file
 from bridge.errors import DiagnosisError
 from bridge.params import KINDS, apply_model, load_param_file, replay_model
+from bridge.params.kinds import OBSTACLE_FRICTION
 from bridge.recording.telemetry import Telemetry
 from bridge.rollout import Rollout
 from bridge.sim.shapes import mass_properties
@@ -71,6 +72,10 @@ def test_models_enter_the_replay_the_documented_way(planar_world, rollout, odb):
     post = apply_model(get_effect("hidden_obstacle").model(planar_world, odb, "surface", {
         pname("obstacle_x", "surface"): 0.1, pname("obstacle_y", "surface"): 0.0}), rollout, odb)
     assert post.extras[0].shape == "cylinder" and post.extras[0].xyz[:2] == (0.1, 0.0)
+    assert post.extras[0].friction == OBSTACLE_FRICTION  # the post's coefficient, unless fitted
+    slippery = apply_model(get_effect("hidden_obstacle").model(planar_world, odb, "surface", {
+        pname("obstacle_x", "surface"): 0.1, pname("obstacle_mu", "surface"): 0.1}), rollout, odb)
+    assert slippery.extras[0].friction == 0.1
     patch = apply_model(get_effect("friction_patch").model(planar_world, odb, "surface", {
         pname("patch_cx", "surface"): 0.1, pname("patch_cy", "surface"): 0.0, pname("patch_half", "surface"): 0.05,
         pname("patch_mu", "surface"): 0.1}), rollout, odb)
@@ -207,3 +212,25 @@ def test_a_post_the_real_object_slid_past_is_placed_where_only_the_simulated_one
     passed["poses_obs"] = passed["poses_sim"]
     elsewhere = _swept_spot(square, [_deflected(post, +1.0), _deflected(post, -1.0), passed])
     assert elsewhere is None or np.linalg.norm(elsewhere - post) > 0.02
+
+
+def test_a_posts_full_fit_stays_within_reach_of_where_the_evidence_put_it(planar_world, odb):
+    """A post moved far from its seed explains other pushes than those that showed it (another hypothesis): the
+    full fit keeps its place within PLACE_REACH of the screened one, its coefficient free over the kind's range;
+    an effect without a place keeps the kinds' bounds."""
+    from bridge.diagnosis.effects.hidden_obstacle import PLACE_REACH
+    from bridge.diagnosis.identify import _space
+
+    post = get_effect("hidden_obstacle")
+    start = {pname("obstacle_x", "surface"): 0.1, pname("obstacle_y", "surface"): -0.02,
+             pname("obstacle_mu", "surface"): 0.1}
+    space = _space((), post, "surface", planar_world, odb, region=post.fit_region(start, "surface"))
+    bounds = {p.name: p.bounds for p in space.free}
+    assert bounds[pname("obstacle_x", "surface")] == pytest.approx((0.1 - PLACE_REACH, 0.1 + PLACE_REACH))
+    assert bounds[pname("obstacle_y", "surface")] == pytest.approx((-0.02 - PLACE_REACH, -0.02 + PLACE_REACH))
+    free = {p.name: p.bounds for p in post.parameters(planar_world, odb, "surface")}
+    assert bounds[pname("obstacle_mu", "surface")] == free[pname("obstacle_mu", "surface")]
+    far = space.to_normal({**start, pname("obstacle_y", "surface"): 0.2})  # clipped into the reach
+    assert space.from_normal(far)[1] == pytest.approx(-0.02 + PLACE_REACH)
+    tilt = get_effect("surface_tilt")
+    assert tilt.fit_region({}, "surface") == {}

@@ -150,6 +150,12 @@ class Effect:
         """Starting values for a fit, by parameter name (default: the null values)."""
         return [self.null_values(evidence.world, evidence.odb, target)]
 
+    def fit_region(self, start: Mapping[str, float], target: str) -> dict[str, tuple[float, float]]:
+        """Bounds (by parameter name) that the screen's step from the best seed and the full fit from the screened
+        point (`start`) keep to, within the kinds' own (default: none). A local effect's place stays near where the evidence seeded it: moved far away it
+        explains other recordings than those that showed it, another hypothesis."""
+        return {}
+
     def describe(self, world: WorldState, odb: ObjectDatabase, target: str,
                  values: Mapping[str, float]) -> dict[str, float]:
         """Derived quantities for the report (e.g. an angle and a direction from slope components)."""
