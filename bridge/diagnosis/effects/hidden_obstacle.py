@@ -27,7 +27,7 @@ SIZES = (0.02, 0.03, 0.045)  # m: the proof's boxes (small, medium, large)
 LATERAL = 0.015  # m: seeds beside the jam's spot, across the push (a post's radius)
 SWEPT_GRID = 0.004  # m: the spacing of the post centres `_swept_spot` tries (finer than TOUCH)
 PLACE_REACH = 0.025  # m: the full fit keeps the post within this of its screened place (`fit_region`): the seeds
-#                    stood 0.5-11 mm from the posts of the MuJoCo and mismatched worlds; a post moved further
+#                    stood 0.3-11 mm from the posts of the MuJoCo and mismatched worlds; a post moved further
 #                    explains other pushes than the ones that showed it (a mismatched rect1 world: 67 mm away,
 #                    slippery, it fitted the training pushes better than the true post and was refused on the others)
 TOUCH = 0.004  # m: how far off every jammed pose the one post may lie (the poses' noise and the outline's
