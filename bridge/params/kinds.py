@@ -739,11 +739,13 @@ class ObstacleMu(_Member):
 
 
 class Patch(Family):
-    """A micrometre-thin sheet over an axis-aligned square of the surface with its own friction coefficient: an
-    object over it rests on the sheet, one straddling its edge feels both coefficients side by side."""
+    """A micrometre-thin sheet with its own friction coefficient over a rectangle of the surface: `half` along its
+    `yaw` direction, `breadth` across it (a square, axis-aligned, unless those say otherwise). An object over it
+    rests on the sheet, one straddling its edge feels both coefficients side by side."""
 
     name = "friction_patch"
-    members = {"cx": "patch_cx", "cy": "patch_cy", "half": "patch_half", "mu": "patch_mu"}
+    members = {"cx": "patch_cx", "cy": "patch_cy", "half": "patch_half", "breadth": "patch_breadth",
+               "yaw": "patch_yaw", "mu": "patch_mu"}
 
     @classmethod
     def realise(cls, values, target, rollout, odb):
@@ -751,9 +753,10 @@ class Patch(Family):
         cx, cy, _, _ = _extent(world, odb, target)
         x, y = values.get("cx", cx), values.get("cy", cy)
         h = values.get("half", 0.05)
+        b = values.get("breadth", h)
         mu = values.get("mu", odb.get(world.objects[target].type).physics.friction)
-        sheet = SurfacePatch("friction_patch", (x - h, x + h, y - h, y + h), surface_top(world, odb, target), mu,
-                             raised=PATCH_RAISED)
+        sheet = SurfacePatch("friction_patch", (x - h, x + h, y - b, y + b), surface_top(world, odb, target), mu,
+                             raised=PATCH_RAISED, yaw=values.get("yaw", 0.0))
         return rollout.with_extras(sheet)
 
 
@@ -777,8 +780,8 @@ class PatchCy(_PatchCentre):
 
 class PatchHalf(_Member):
     name, component, family, unit = "patch_half", "half", Patch, "m"
-    physical = PhysicalRange(0.0, 10.0, "m", "in m: half the side of a square on a table", open_low=True)
-    doc = "a region of other friction: half the side of its square"
+    physical = PhysicalRange(0.0, 10.0, "m", "in m: half a side of a region on a table", open_low=True)
+    doc = "a region of other friction: half its length along its yaw direction (half the side of a square)"
 
     def null(self, world, odb, target):
         return 0.05
@@ -789,6 +792,26 @@ class PatchHalf(_Member):
 
     def step(self, world, odb, target):
         return 0.01
+
+
+class PatchBreadth(PatchHalf):
+    name, component = "patch_breadth", "breadth"
+    doc = "a region of other friction: half its breadth across its yaw direction (a strip's length)"
+
+
+class PatchYaw(_Member):
+    name, component, family, unit = "patch_yaw", "yaw", Patch, "rad"
+    physical = PhysicalRange(-2 * math.pi, 2 * math.pi, "rad", "in rad: an angle about the vertical")
+    doc = "a region of other friction: its turn about the vertical (0: its sides along world x and y)"
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return -2 * math.pi, 2 * math.pi  # a rectangle's turn is periodic: wide bounds so a fit never stops on one
+
+    def step(self, world, odb, target):
+        return 0.1
 
 
 class PatchMu(_Member):
@@ -1109,7 +1132,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Latency(), JointOffset(),
     SurfaceSlopeX(), SurfaceSlopeY(), SurfaceDz(),
     ObstacleX(), ObstacleY(), ObstacleMu(),
-    PatchCx(), PatchCy(), PatchHalf(), PatchMu(),
+    PatchCx(), PatchCy(), PatchHalf(), PatchBreadth(), PatchYaw(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
     AnisoC(), AnisoS(), FieldGx(), FieldGy(),
     SlidingFriction(), RobotFriction(),

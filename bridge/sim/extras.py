@@ -82,11 +82,13 @@ class Slug:
 
 @dataclass(frozen=True)
 class SurfacePatch:
-    """A sheet of another material lying on a support surface over the rectangle `region` = (x0, x1, y0, y1):
-    a rigid box whose top is `raised` above the surface's top `top_z`. With `raised` = 0 (the default) the sheet
-    and the surface share the plane: an object over the sheet presses on both, each carries half of its weight,
-    so the friction there is the mean of the two pairs' coefficients; outside the region the surface's contact
-    is exactly what it was (same geometry), and crossing the sheet's edge meets no step."""
+    """A sheet of another material lying on a support surface over the rectangle `region` = (x0, x1, y0, y1),
+    turned by `yaw` about its centre (real regions of another friction, a mat's edge, tape, a wet spot, lie at
+    any angle to the world's axes): a rigid box whose top is `raised` above the surface's top `top_z`. With
+    `raised` = 0 (the default) the sheet and the surface share the plane: an object over the sheet presses on
+    both, each carries half of its weight, so the friction there is the mean of the two pairs' coefficients;
+    outside the region the surface's contact is exactly what it was (same geometry), and crossing the sheet's
+    edge meets no step."""
 
     name: str
     region: tuple[float, float, float, float]
@@ -94,14 +96,16 @@ class SurfacePatch:
     friction: float
     raised: float = 0.0
     thickness: float = 0.004
+    yaw: float = 0.0
 
     def add_to(self, plant, world, odb, config) -> None:
         x0, x1, y0, y1 = self.region
         if not (x1 > x0 and y1 > y0):
             raise SceneError(f"surface patch {self.name!r}: region must have x1 > x0 and y1 > y0, got {self.region}")
         z = self.top_z + self.raised - self.thickness / 2
-        WeldedShape(self.name, "box", (x1 - x0, y1 - y0, self.thickness), ((x0 + x1) / 2, (y0 + y1) / 2, z),
-                    friction=self.friction, color=(0.75, 0.85, 0.75, 1.0)).add_to(plant, world, odb, config)
+        sheet = WeldedShape(self.name, "box", (x1 - x0, y1 - y0, self.thickness), ((x0 + x1) / 2, (y0 + y1) / 2, z),
+                            (0.0, 0.0, float(self.yaw)), friction=self.friction, color=(0.75, 0.85, 0.75, 1.0))
+        sheet.add_to(plant, world, odb, config)
 
 
 @dataclass(frozen=True)

@@ -80,7 +80,11 @@ def test_models_enter_the_replay_the_documented_way(planar_world, rollout, odb):
         pname("patch_cx", "surface"): 0.1, pname("patch_cy", "surface"): 0.0, pname("patch_half", "surface"): 0.05,
         pname("patch_mu", "surface"): 0.1}), rollout, odb)
     sheet = patch.extras[0]
-    assert sheet.friction == 0.1 and sheet.region == pytest.approx((0.05, 0.15, -0.05, 0.05))
+    assert sheet.friction == 0.1 and sheet.region == pytest.approx((0.05, 0.15, -0.05, 0.05)) and sheet.yaw == 0.0
+    strip = apply_model(get_effect("friction_patch").model(planar_world, odb, "surface", {
+        pname("patch_cx", "surface"): 0.1, pname("patch_half", "surface"): 0.02, pname("patch_breadth", "surface"): 0.1,
+        pname("patch_yaw", "surface"): 0.5}), rollout, odb).extras[0]
+    assert strip.region == pytest.approx((0.08, 0.12, -0.1, 0.1)) and strip.yaw == 0.5  # turned about its centre
     with pytest.raises(DiagnosisError, match="has no parameter 'mu'; parameters: friction\\[block\\]"):
         get_effect("friction").model(planar_world, odb, "block", {"mu": 0.3})
 
@@ -148,9 +152,35 @@ def test_a_patch_is_tried_only_where_a_residual_begins_mid_push(planar_world, od
     assert effect.seeds(Evidence(early, planar_world, odb), "surface") == []
     late = tuple({**f, "onset_rel": 0.5} for f in early)
     ahead = effect.seeds(Evidence(late, planar_world, odb), "surface")
-    # each square begins where the objects' leading edges were at the onset (origin + 5 cm reach along +x)
-    assert {(round(s[pname("patch_cx", "surface")], 4), round(s[pname("patch_cy", "surface")], 4))
-            for s in ahead} == {(0.11, 0.0), (0.2, 0.0)}
+    # each rectangle begins where the objects' leading edges were at the onset (origin + 5 cm reach along +x)
+    assert {round(s[pname("patch_cx", "surface")] - s[pname("patch_half", "surface")], 4) for s in ahead} == {0.05}
+
+
+def test_a_patchs_seeds_face_the_way_the_objects_went(planar_world, odb):
+    """Real regions of other friction lie at any angle. Objects that went 30 deg off the world's x axis get
+    rectangles turned that way, whose near edge crosses their way where they were at the onset: a half-plane to
+    pushes of a few centimetres, a strip and a square, each slippery and grippy. (Axis-aligned squares met an
+    independent MuJoCo world's oblique edge too early on one side and too late on the other: `none`.)"""
+    import numpy as np
+
+    from bridge.diagnosis.effects import Evidence
+
+    way = math.radians(30.0)
+    d = np.array([math.cos(way), math.sin(way)])
+    features = tuple({"significant": True, "onset_rel": 0.5, "direction": tuple(d), "onset_xy_sim": (0.0, 0.0),
+                      "reach": 0.05} for _ in range(4))
+    seeds = get_effect("friction_patch").seeds(Evidence(features, planar_world, odb), "surface")
+    assert seeds and all(s[pname("patch_yaw", "surface")] == pytest.approx(way) for s in seeds)
+    for s in seeds:
+        centre = np.array([s[pname("patch_cx", "surface")], s[pname("patch_cy", "surface")]])
+        assert centre - d * s[pname("patch_half", "surface")] == pytest.approx(0.05 * d)  # the near edge's middle
+    shapes = {(s[pname("patch_half", "surface")], s[pname("patch_breadth", "surface")]) for s in seeds}
+    assert any(h < b for h, b in shapes) and any(h == b for h, b in shapes)  # a strip across the way, squares
+    mus = {s[pname("patch_mu", "surface")] for s in seeds}
+    pair = get_effect("friction_patch")._pair(planar_world, odb, "surface")
+    from bridge.sim.friction import combined_friction
+    mu_o = odb.get(planar_world.objects["block"].type).physics.friction
+    assert min(combined_friction(mu_o, m) for m in mus) < pair < max(combined_friction(mu_o, m) for m in mus)
 
 
 def test_a_squeezed_object_places_the_post_on_the_line_of_the_rods_force():

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from bridge.diagnosis.crossval import Prediction
-from bridge.diagnosis.identify import CV_GAIN, Scored, _acceptable, _cv_reason, _verdict, _with_uncertainty
+from bridge.diagnosis.identify import (CV_GAIN, Candidate, Scored, _acceptable, _cv_reason, _full_fits, _verdict,
+                                       _with_uncertainty)
 from bridge.diagnosis.search import FitResult
 from bridge.params import KINDS, Parameter, ParameterSet
 
@@ -169,3 +170,20 @@ def test_a_weight_or_coefficient_verdict_says_the_pushes_measure_only_their_prod
     assert twice is not None and f"a {2.0 * m0:.3g} kg block" in twice
     assert _weight_note(verdict("friction", {"friction[block]": 1.02 * mu0}), loc, planar_world, odb) is None
     assert _weight_note(verdict("com_offset", {"com_x[block]": 0.01}), loc, planar_world, odb) is None
+
+
+def test_the_signatures_favourite_is_fitted_fully_where_its_screen_gained():
+    """A screen is one step from the seeds: a flexible effect (a turned patch of 6 parameters) screens better than
+    a smooth one that fits better (a matched world's centre of mass, the verdict by a wide margin when fitted,
+    screened seventh). The best four are fitted, and the signature's favourite beside them if its screen removed
+    anything; one whose screen made things worse is left, and none is fitted twice."""
+    screened = [Candidate(f"e{k}", "t", prior, chi2) for k, (prior, chi2) in
+                enumerate([(0.4, 67.0), (0.36, 96.0), (0.49, 202.0), (0.76, 369.0), (0.45, 296.0), (0.47, 322.0),
+                           (0.77, 432.0)])]
+    names = [c.effect for c in _full_fits(screened, 4, 853.0, lambda c: False)]
+    assert names == ["e0", "e1", "e2", "e3", "e6"]
+    assert [c.effect for c in _full_fits(screened, 4, 400.0, lambda c: False)] == ["e0", "e1", "e2", "e3"]
+    assert [c.effect for c in _full_fits(screened[-1:] + screened[:4], 4, 853.0, lambda c: False)] == \
+        ["e6", "e0", "e1", "e2"]
+    assert [c.effect for c in _full_fits(screened, 4, 853.0, lambda c: c.effect == "e4")] == \
+        ["e0", "e1", "e2", "e3", "e4", "e6"]

@@ -74,3 +74,37 @@ def test_a_slippery_half_plane_the_block_crosses_reads_as_a_field_falling_toward
     g = (ident.winner.params["field_gx[block]"], ident.winner.params["field_gy[block]"])
     towards = ((x0 + x1) / 2, (y0 + y1) / 2)  # from the block's start at the origin
     assert g[0] * towards[0] + g[1] * towards[1] < 0
+
+
+@pytest.mark.slow
+def test_a_turned_patch_is_where_its_turn_puts_it(odb, tmp_path):
+    """The model's patch is a rectangle turned by `patch_yaw` about its centre, as real regions of other friction
+    lie at any angle. Through the real simulation: the proof's sheet (an axis-aligned rectangle the block crosses)
+    described turned a quarter about its centre with its sides swapped is the same sheet (the recordings follow it
+    as closely), and the same sides unturned are another sheet (the recordings part from it)."""
+    import numpy as np
+
+    from bridge.diagnosis.runs import Runner, prepare
+    from bridge.params.model import Setting
+    from bridge.sim.friction import surface_friction_for
+
+    paths, truth = generate_case(Case("planar", "friction_patch", "large", 1), odb, tmp_path / "case", 2)
+    x0, x1, y0, y1 = truth.extra["region"]
+    mu_block = odb.get("steel_block").physics.friction
+    trials = load_trials(paths, odb)
+
+    def sheet(half: float, breadth: float, yaw: float) -> tuple:
+        values = {"patch_cx": (x0 + x1) / 2, "patch_cy": (y0 + y1) / 2, "patch_half": half, "patch_breadth": breadth,
+                  "patch_yaw": yaw, "patch_mu": surface_friction_for(truth.params["pair_mu_inside"], mu_block)}
+        return tuple(Setting(k, "surface", v) for k, v in values.items())
+
+    with make_executor("serial", odb) as executor:
+        runner = Runner([prepare(t, odb, 25.0) for t in trials], odb, executor)
+
+        def chi2(model: tuple) -> float:
+            return float(sum(np.sum(r.normalised ** 2) for r in runner.run(model, list(range(len(trials))))))
+        along, across = (x1 - x0) / 2, (y1 - y0) / 2
+        straight, turned, swapped = (chi2(sheet(along, across, 0.0)), chi2(sheet(across, along, math.pi / 2)),
+                                     chi2(sheet(across, along, 0.0)))
+    assert turned == pytest.approx(straight, rel=0.01) and swapped > 2 * straight + 10, \
+        (straight, turned, swapped)

@@ -253,3 +253,34 @@ def test_a_slippery_post_is_told_from_a_grippy_one(odb, tmp_path):
     seeds = get_effect("hidden_obstacle").seeds(evidence, "surface")
     mus = [s.get("obstacle_mu[surface]", OBSTACLE_FRICTION) for s in seeds]
     assert mus.count(SLIPPERY) == min(2, len(seeds) // 2) and mus[0] == OBSTACLE_FRICTION, seeds
+
+
+@pytest.mark.slow
+def test_a_mismatched_worlds_patch_lies_across_the_pushes_at_an_angle(odb, tmp_path):
+    """Real regions of other friction lie at any angle to the pushes: the mismatched proof turns its sheets
+    about the start area. Through the real simulation, the recordings follow the model's patch laid where the
+    world's turned sheet is (`patch_yaw`) far better than the same patch unturned, which is little better than
+    none: the edge of a half-plane turned 18 deg meets the pushes elsewhere."""
+    from bridge.diagnosis.runs import Runner, prepare
+    from bridge.params.model import Setting
+    from bridge.rollout import make_executor
+    from bridge.rollout.trials import load_trials
+    from bridge.prove.generate import generate_case
+    from bridge.sim.friction import surface_friction_for
+
+    paths, truth = generate_case(Case(SHAPE, "friction_patch", "large", 6, "mismatched"), odb, tmp_path, 3)
+    x0, x1, y0, y1 = truth.extra["region"]
+    assert truth.extra["shape"] == "half" and abs(truth.extra["turn"]) > 0.2, truth.extra  # turned over 11 deg
+    mu = surface_friction_for(truth.params["pair_mu_inside"], odb.get("steel_block").physics.friction)
+    trials = load_trials(paths, odb, observation_rate=250.0)
+    with make_executor("serial", odb) as executor:
+        runner = Runner([prepare(t, odb, 25.0) for t in trials], odb, executor)
+
+        def chi2(yaw: float) -> float:
+            values = {"patch_cx": (x0 + x1) / 2, "patch_cy": (y0 + y1) / 2, "patch_half": (x1 - x0) / 2,
+                      "patch_breadth": (y1 - y0) / 2, "patch_yaw": yaw, "patch_mu": mu}
+            runs = runner.run(tuple(Setting(k, "surface", v) for k, v in values.items()), list(range(len(trials))))
+            return float(sum(np.sum(r.normalised ** 2) for r in runs))
+        turned, straight = chi2(truth.extra["turn"]), chi2(0.0)
+        none = float(sum(np.sum(r.normalised ** 2) for r in runner.run((), list(range(len(trials))))))
+    assert turned < 0.3 * straight and turned < 0.3 * none, (turned, straight, none)

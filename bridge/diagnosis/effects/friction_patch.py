@@ -1,10 +1,11 @@
 """`friction_patch`: a region of the support surface has a different friction coefficient (a worn, wet,
 taped or different-material area).
 
-Modelled as a scene extra (`bridge.params.kinds.Patch`): a micrometre-thin sheet over an axis-aligned square
-(centre cx, cy, half size `half`) with its own coefficient `mu`; an object over it rests on the sheet, so the
-pair's coefficient there is 2 mu mu_object / (mu + mu_object), and an object straddling its edge feels the two
-coefficients side by side (the torque a uniform blend would miss). A new scene per value (~40 ms).
+Modelled as a scene extra (`bridge.params.kinds.Patch`): a micrometre-thin sheet over a rectangle (centre cx, cy,
+`half` its length along its `yaw` direction, `breadth` half its breadth across) with its own coefficient `mu`;
+an object over it rests on the sheet, so the pair's coefficient there is 2 mu mu_object / (mu + mu_object), and
+an object straddling its edge feels the two coefficients side by side (the torque a uniform blend would miss).
+A new scene per value (~40 ms).
 """
 from __future__ import annotations
 
@@ -18,6 +19,10 @@ from .base import Effect, Evidence, Recovery, Truth, model_friction, pname
 
 HIGHER = (1.2, 1.32, 1.44)  # the proof's pair coefficient inside, times this (small, medium, large) ...
 LOWER = (0.78, 0.66, 0.56)  # ... or this
+# the seeds' rectangles (half along the way, half breadth across), m: as far as pushes of a few centimetres reach
+# (a half-plane to them), a strip they cross, a square they enter
+SHAPES = ((0.15, 0.15), (0.025, 0.12), (0.06, 0.06))
+TURN = 0.5  # rad: the mismatched proof's sheets are turned up to this about the start area
 
 
 def _object_mu(world, odb, surface: str) -> float:
@@ -28,12 +33,12 @@ def _object_mu(world, odb, surface: str) -> float:
 class FrictionPatch(Effect):
     name = "friction_patch"
     summary = "part of the support surface has a different friction coefficient"
-    mechanism = "scene extra: a 1 um sheet with its own coefficient over a square of the surface"
+    mechanism = "scene extra: a 1 um sheet with its own coefficient over a turned rectangle of the surface"
     signature_text = ("onset in the middle of a push, when the object reaches the same place in several "
                       "recordings; the object keeps moving (no stall), it turns or slides on differently")
     smooth = False
     local = True
-    kinds = ("patch_cx", "patch_cy", "patch_half", "patch_mu")
+    kinds = ("patch_cx", "patch_cy", "patch_half", "patch_breadth", "patch_yaw", "patch_mu")
 
     def targets(self, world, odb, observed):
         return surfaces_under(world, odb, observed)
@@ -58,11 +63,15 @@ class FrictionPatch(Effect):
         return min(1.0, 0.3 + 0.5 * len(late) / max(1, len(evidence.significant())) + 0.2 * (1.0 - stall))
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Squares that begin where the objects' leading edges were at the onsets (the median entry point and the
-        first single one), small and large, with a lower and a higher coefficient."""
+        """Rectangles turned to face the way the objects went, beginning where their leading edges were at the
+        onsets (the median entry point and the first single one): a half-plane (as far as the pushes go), a strip
+        across the way and a square, each with a lower and a higher coefficient. Real regions of other friction
+        (a mat's edge, tape, a wet spot) lie at any angle: an axis-aligned square meets an oblique edge too early
+        on one side and too late on the other."""
         mu_bounds = next(p.bounds for p in self.parameters(evidence.world, evidence.odb, target)
                          if p.kind.name == "patch_mu")
         pair = self._pair(evidence.world, evidence.odb, target)
+        mu_o = _object_mu(evidence.world, evidence.odb, target)
         late = [f for f in evidence.significant()
                 if f.get("onset_rel") is not None and f["onset_rel"] > 0.1 and f.get("onset_xy_sim") is not None]
         if not late:
@@ -74,13 +83,14 @@ class FrictionPatch(Effect):
         out = []
         for point, d in points:
             d = d / (np.linalg.norm(d) or 1.0)
-            for half in (0.06, 0.15):
+            yaw = float(np.arctan2(d[1], d[0]))
+            for half, breadth in SHAPES:
                 c = point + d * half
                 for factor in (0.55, 1.45):
-                    mu_o = _object_mu(evidence.world, evidence.odb, target)
                     mu = float(np.clip(surface_friction_for(factor * pair, mu_o), *mu_bounds))
                     out.append({pname("patch_cx", target): float(c[0]), pname("patch_cy", target): float(c[1]),
-                                pname("patch_half", target): half, pname("patch_mu", target): mu})
+                                pname("patch_half", target): half, pname("patch_breadth", target): breadth,
+                                pname("patch_yaw", target): yaw, pname("patch_mu", target): mu})
         return out
 
     # --- the proof: a sheet of another material flush on the surface over a rectangle (objects on it press on
@@ -97,7 +107,7 @@ class FrictionPatch(Effect):
         x1 = x0 + rng.uniform(0.25, 0.35)
         edge = scene.centre[1] + rng.uniform(-0.02, 0.02)
         y0, y1 = (edge, edge + 0.4) if rng.random() < 0.5 else (edge - 0.4, edge)
-        shape = "half"
+        shape, turn = "half", 0.0
         if getattr(scene, "varied", False):  # the mismatched proof: a half-plane, a strip across the way, a square
             shape = ("half", "strip", "square")[int(rng.integers(3))]
             if shape == "strip":
@@ -107,14 +117,22 @@ class FrictionPatch(Effect):
                 half = rng.uniform(0.03, 0.06)
                 cx, cy = scene.centre[0] + rng.uniform(0.06, 0.1), scene.centre[1] + rng.uniform(-0.03, 0.03)
                 x0, x1, y0, y1 = cx - half, cx + half, cy - half, cy + half
+            # turned about the start area, as real regions lie at any angle to the pushes (drawn from a child
+            # generator: every other draw of the world stays as it was)
+            turn = float(rng.spawn(1)[0].uniform(-TURN, TURN))
+            mid = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+            c, s = np.cos(turn), np.sin(turn)
+            dx, dy = np.asarray(scene.centre[:2]) + np.array([[c, -s], [s, c]]) @ (mid - scene.centre[:2]) - mid
+            x0, x1, y0, y1 = x0 + dx, x1 + dx, y0 + dy, y1 + dy
         return Truth(self.name, scene.surface, {"pair_mu_inside": pair, "x0": x0},
-                     f"a thin sheet of another material on the surface ({shape})",
-                     {"region": [x0, x1, y0, y1], "tile_mu": mu_tile, "shape": shape})
+                     f"a thin sheet of another material on the surface ({shape}, turned {np.degrees(turn):.0f} deg)",
+                     {"region": [x0, x1, y0, y1], "tile_mu": mu_tile, "shape": shape, "turn": turn})
 
     def conceal(self, truth, scene, odb, rollout):
         top = scene.surface_xyz[2] + half_extents(odb.get(scene.surface_type).geometry)[2]
-        return rollout.with_extras(SurfacePatch("sheet", tuple(truth.extra["region"]), top, truth.extra["tile_mu"])), \
-            rollout.telemetry
+        sheet = SurfacePatch("sheet", tuple(truth.extra["region"]), top, truth.extra["tile_mu"],
+                             yaw=truth.extra.get("turn", 0.0))
+        return rollout.with_extras(sheet), rollout.telemetry
 
     def recovered(self, truth, found, model, world, odb):
         obj = next(n for n, o in world.objects.items() if not odb.get(o.type).fixed)
