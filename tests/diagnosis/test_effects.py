@@ -164,6 +164,7 @@ def test_a_patchs_seeds_face_the_way_the_objects_went(planar_world, odb):
     import numpy as np
 
     from bridge.diagnosis.effects import Evidence
+    from bridge.sim.friction import combined_friction
 
     way = math.radians(30.0)
     d = np.array([math.cos(way), math.sin(way)])
@@ -178,7 +179,6 @@ def test_a_patchs_seeds_face_the_way_the_objects_went(planar_world, odb):
     assert any(h < b for h, b in shapes) and any(h == b for h, b in shapes)  # a strip across the way, squares
     mus = {s[pname("patch_mu", "surface")] for s in seeds}
     pair = get_effect("friction_patch")._pair(planar_world, odb, "surface")
-    from bridge.sim.friction import combined_friction
     mu_o = odb.get(planar_world.objects["block"].type).physics.friction
     assert min(combined_friction(mu_o, m) for m in mus) < pair < max(combined_friction(mu_o, m) for m in mus)
 
