@@ -19,11 +19,11 @@ never this): the pressure is taken uniform (an off-centre mass or a few pads wei
 differently), the coefficient isotropic and the same everywhere (a patch or a field the pushes head for, or
 anisotropic friction along one push direction, read partly as a slope), and a force-sensor bias along the pushes
 reads as a slope too. Independent MuJoCo worlds (benchmarks/independent_pushes.py) read their 1 deg tilts as
-1.1-1.3 deg with the downhill direction within 20 deg, their level worlds as 0.2-0.5 deg; Drake's own tilted
-worlds read 2-5 times too steep (downhill within 17 deg), worlds with a patch or a miscalibrated rod 1.6-1.8 deg,
-the real MIT pushes 4-8 deg (docs/diagnosis.md section 3d): far from a measurement. `coefficient` is mu at the
-object database's mass (a heavier object reads as a larger mu: the force measures weight x coefficient); it reads
-within 0.025 of the truth in every simulated world.
+1.1-1.3 deg with the downhill direction within 20 deg, their level worlds as 0.2-0.5 deg; the mismatched
+proof's tilted Drake worlds (softer contact, a weak servo) 2-5 times too steep (downhill within 17 deg), worlds
+with a patch or a miscalibrated rod 1.6-1.8 deg, the real MIT pushes 4-8 deg (docs/diagnosis.md section 3d): far
+from a measurement. `coefficient` is mu at the object database's mass (a heavier object reads as a larger mu: the
+force measures weight x coefficient); it reads within 0.025 of the truth in every simulated world.
 """
 from __future__ import annotations
 
@@ -46,6 +46,8 @@ MIN_SLOPE = 0.0017  # rad: below this a slope is negligible (`params.kinds.Surfa
 PINNED = 0.0175  # rad (1 deg): the largest 1 sigma of a slope component that still seeds a search; the tilts that
 #                  matter are 0.5-2 deg, and pushes along one direction leave the other unpinned (sigma of radians)
 OUTLIER = 4.0  # windows off the fit by more than this many robust deviations are left out of the refit
+AGREES = 0.025  # a fitted sliding coefficient this close to the work's agrees with it: the work reads within 0.025
+#                of the truth in every simulated world without a patch (module docstring)
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,12 @@ class WorkFit:
     @property
     def evident(self) -> bool:
         return self.pinned and self.slope_sigmas() > NOISE_SIGMAS and self.tilt > MIN_SLOPE
+
+    def disagrees(self, fitted: float) -> bool:
+        """A fitted sliding coefficient the work the robot did contradicts: more than AGREES and NOISE_SIGMAS
+        sigma off (the fit soaked up something the force does not show, e.g. a tilt's drift taken as easier
+        sliding)."""
+        return abs(fitted - self.coefficient) > max(AGREES, NOISE_SIGMAS * self.coefficient_sd)
 
     def sentence(self) -> str:
         """The report's line: the coefficient always (a friction fit far from it soaks up something else), the

@@ -187,3 +187,29 @@ def test_the_signatures_favourite_is_fitted_fully_where_its_screen_gained():
         ["e6", "e0", "e1", "e2"]
     assert [c.effect for c in _full_fits(screened, 4, 853.0, lambda c: c.effect == "e4")] == \
         ["e0", "e1", "e2", "e3", "e4", "e6"]
+
+
+def test_the_screens_start_from_the_sliding_coefficient_the_force_measures_where_the_fit_contradicts_it(
+        planar_world, odb):
+    """Where the friction fit bent away from what the robot's force measures (an independent MuJoCo hex on a
+    1 deg slope: 0.09 fitted, 0.341 +- 0.001 measured, and from the fitted coefficient the true tilt screened
+    worse than level), the screens also start from the measured coefficient, the robot's coefficient kept as
+    fitted; a fit that agrees, a reading of another object or one without force leaves the starts as they were."""
+    from bridge.diagnosis.identify import _friction_parameters, _work_friction
+    from bridge.diagnosis.work import AGREES, WorkFit
+
+    params = _friction_parameters(planar_world, odb, "block")
+    names = [p.name for p in params]
+    assert names[0] == "sliding_friction[block]"
+    fitted = {names[0]: 0.0926, names[1]: 0.4578}
+
+    def work(coefficient: float, sd: float = 0.001, obj: str = "block") -> WorkFit:
+        return WorkFit(obj, coefficient, sd, (0.0, 0.0), ((1e-4, 0.0), (0.0, 1e-4)), 33, 6)
+
+    assert _work_friction(work(0.341), params, fitted) == {names[0]: 0.341, names[1]: 0.4578}
+    assert _work_friction(work(0.0926 + 0.9 * AGREES), params, fitted) is None  # within the work's accuracy
+    assert _work_friction(work(0.2, sd=0.05), params, fitted) is None  # within its 3 sigma
+    assert _work_friction(work(0.341, obj="pusher"), params, fitted) is None
+    assert _work_friction(None, params, fitted) is None
+    hi = params[0].bounds[1]
+    assert _work_friction(work(hi + 1.0), params, fitted)[names[0]] == hi  # a heavier object reads beyond the bound
