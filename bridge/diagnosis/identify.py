@@ -462,7 +462,7 @@ def _work_friction(work: WorkFit | None, friction: Sequence[Parameter], fitted: 
     """The fitted coefficients with the sliding one the work the robot did measures, where the two disagree
     (`WorkFit.disagrees`): a start for the screens. The friction fit bends to what the model lacks (independent
     MuJoCo hex tilted 1 deg: it fitted 0.09 where the force says 0.34, and from there the true tilt screened worse
-    than level; from the force's coefficient and the work's slope it beats the friction fit by 10 %)."""
+    than level; from the force's coefficient and the work's slope it beats the friction fit by 12 %)."""
     sliding = next((p for p in friction if p.kind.name == "sliding_friction"), None)
     if work is None or sliding is None or sliding.target != work.object or not work.disagrees(fitted[sliding.name]):
         return None

@@ -1,6 +1,7 @@
 """The diagnosis on worlds it was not built from: recordings of the independent MuJoCo generator
 (benchmarks/independent_pushes.py), each a failure of an earlier revision that a change fixed. Skipped without
 MuJoCo (`pip install -e .[bench]`) or the MIT shapes' outlines."""
+import json
 import math
 import sys
 from pathlib import Path
@@ -20,8 +21,6 @@ def test_a_tilt_the_friction_fit_took_for_easier_sliding_is_found_from_the_force
     """A hex on a sheet tilted 1 deg (the generator's seed 1): the friction fit bent the sliding coefficient to 0.09
     where the robot's force measures 0.34, and from there the true tilt screened worse than level and a 4.5 mm
     centre of mass was the verdict. The screens now also start from the measured coefficient."""
-    import json
-
     from bridge.diagnosis.pipeline import diagnose_paths
 
     folder = gen.make_case(mit_push_root, tmp_path, "hex", "surface_tilt", 1)
