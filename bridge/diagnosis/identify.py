@@ -303,9 +303,8 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     frictions = [(fitted_friction, base_fit.x), (nominal_friction, None)]
     measured_friction = _work_friction(work, friction_params, fitted_friction)
     if measured_friction is not None:
-        frictions.append((measured_friction, None))
-        say(f"the screens also start from the sliding coefficient the robot's force measures ({work.coefficient:.3f}"
-            f" +- {work.coefficient_sd:.3f}; the friction fit's contradicts it)")
+        say(f"the screens seeded by the work also start from the sliding coefficient the robot's force measures "
+            f"({work.coefficient:.3f} +- {work.coefficient_sd:.3f}; the friction fit's contradicts it)")
     for k, c in enumerate(candidates):
         if limit.expired():
             screened += [Candidate(r.effect, r.target, r.prior, math.inf, {}, "not screened: time limit")
@@ -313,12 +312,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
             break
         effect = get_effect(c.effect)
         space = _space(friction_params, effect, c.target, world, odb, measured)
-        # each seed with the fitted coefficients and with the nominal ones (the friction fit may have taken up
-        # what the effect explains, e.g. a heavier object's larger push force), and with the sliding coefficient
-        # the robot's force measures where the fit contradicts it; smooth effects then take one Gauss-Newton step
-        # from the best start of each
+        # each seed with each start of the friction coefficients (`_friction_starts`); smooth effects then take
+        # one Gauss-Newton step from the best start of each
         starts = [_with_friction(space.to_normal({**values, **seed}), x_f)
-                  for seed in effect.seeds(evidence, c.target) for values, x_f in frictions]
+                  for seed in effect.seeds(evidence, c.target)
+                  for values, x_f in _friction_starts(effect, frictions, measured_friction)]
         if not starts:
             screened.append(Candidate(c.effect, c.target, c.prior, math.inf, {}, "no seed from the localisation"))
             continue
@@ -468,6 +466,16 @@ def _work_friction(work: WorkFit | None, friction: Sequence[Parameter], fitted: 
         return None
     lo, hi = sliding.bounds
     return {**fitted, sliding.name: float(np.clip(work.coefficient, lo, hi))}
+
+
+def _friction_starts(effect, frictions: list, measured: dict[str, float] | None) -> list:
+    """The friction coefficients an effect's seeds start from, with their coordinates where they have them: the
+    fitted and the nominal ones (the friction fit may have taken up what the effect explains, e.g. a heavier
+    object's larger push force) and, for an effect whose seeds the work balance reads (`Effect.reads_work`), the
+    sliding coefficient it reads them with, where the fit contradicts it (`_work_friction`). The slope and the
+    coefficient are one solution of one balance; paired with other effects' seeds the coefficient turned real ellip3
+    from anisotropic_friction to a com_offset its held-out pushes reject."""
+    return list(frictions) + ([(measured, None)] if measured is not None and effect.reads_work else [])
 
 
 def _with_friction(x: np.ndarray, friction_x: np.ndarray | None) -> np.ndarray:

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from bridge.diagnosis.crossval import Prediction
-from bridge.diagnosis.identify import (CV_GAIN, Candidate, Scored, _acceptable, _cv_reason, _full_fits, _verdict,
-                                       _with_uncertainty)
+from bridge.diagnosis.effects import get_effect
+from bridge.diagnosis.identify import (CV_GAIN, Candidate, Scored, _acceptable, _cv_reason, _friction_parameters,
+                                       _friction_starts, _full_fits, _verdict, _with_uncertainty, _work_friction)
+from bridge.diagnosis.work import AGREES, WorkFit
 from bridge.diagnosis.search import FitResult
 from bridge.params import KINDS, Parameter, ParameterSet
 
@@ -189,15 +191,14 @@ def test_the_signatures_favourite_is_fitted_fully_where_its_screen_gained():
         ["e0", "e1", "e2", "e3", "e4", "e6"]
 
 
-def test_the_screens_start_from_the_sliding_coefficient_the_force_measures_where_the_fit_contradicts_it(
+def test_the_tilt_screen_starts_from_the_sliding_coefficient_the_force_measures_where_the_fit_contradicts_it(
         planar_world, odb):
     """Where the friction fit bent away from what the robot's force measures (an independent MuJoCo hex on a
     1 deg slope: 0.09 fitted, 0.341 +- 0.001 measured, and from the fitted coefficient the true tilt screened
-    worse than level), the screens also start from the measured coefficient, the robot's coefficient kept as
-    fitted; a fit that agrees, a reading of another object or one without force leaves the starts as they were."""
-    from bridge.diagnosis.identify import _friction_parameters, _work_friction
-    from bridge.diagnosis.work import AGREES, WorkFit
-
+    worse than level), the tilt's screen, whose seed the same balance reads, also starts from the measured
+    coefficient, the robot's coefficient kept as fitted; other effects' screens do not (with a centre of mass the
+    measured start turned real ellip3 to a com_offset its held-out pushes reject); a fit that agrees, a reading of
+    another object or one without force leaves the starts as they were."""
     params = _friction_parameters(planar_world, odb, "block")
     names = [p.name for p in params]
     assert names[0] == "sliding_friction[block]"
@@ -213,3 +214,10 @@ def test_the_screens_start_from_the_sliding_coefficient_the_force_measures_where
     assert _work_friction(None, params, fitted) is None
     hi = params[0].bounds[1]
     assert _work_friction(work(hi + 1.0), params, fitted)[names[0]] == hi  # a heavier object reads beyond the bound
+
+    measured = _work_friction(work(0.341), params, fitted)
+    frictions = [(fitted, np.zeros(2)), ({names[0]: 0.25, names[1]: 0.5}, None)]
+    assert _friction_starts(get_effect("surface_tilt"), frictions, measured) == frictions + [(measured, None)]
+    for other in ("com_offset", "anisotropic_friction", "mass", "friction_patch"):
+        assert _friction_starts(get_effect(other), frictions, measured) == frictions
+    assert _friction_starts(get_effect("surface_tilt"), frictions, None) == frictions

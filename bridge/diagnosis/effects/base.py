@@ -107,6 +107,9 @@ class Effect:
     signature_text: ClassVar[str] = ""  # what it leaves in the residual, in words
     smooth: ClassVar[bool] = True  # False: no useful gradient at the null value; fits start from `seeds`
     local: ClassVar[bool] = False  # True: it sits at one place of a surface; pushes that miss it do not show it
+    # True: its seeds come from the work the robot did (`diagnosis.work`), which reads them jointly with a sliding
+    # coefficient, so its screen also starts from that coefficient where the friction fit contradicts it
+    reads_work: ClassVar[bool] = False
     kinds: ClassVar[tuple[str, ...]] = ()
     fixed: ClassVar[Mapping[str, float]] = {}
     judged_by: ClassVar[tuple[str, ...] | None] = None  # None: every kind with a negligible size

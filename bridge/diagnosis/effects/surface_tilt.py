@@ -29,6 +29,7 @@ class SurfaceTilt(Effect):
     signature_text = ("drift in one world direction in every recording, whatever the push direction, from the "
                       "first contact on; observed tilt of resting objects when tilt is measured")
     kinds = ("surface_slope_x", "surface_slope_y", "surface_dz")
+    reads_work = True
 
     def targets(self, world, odb, observed):
         return surfaces_under(world, odb, observed)
