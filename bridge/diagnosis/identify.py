@@ -752,9 +752,15 @@ def _cv_reason(s: Scored, floor: Scored) -> str | None:
     share, needed = s.cv.compare(floor.cv), (0.0 if s.measured else CV_GAIN)
     if share < needed:
         return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
-                f"fitted on (cross-validated, the geometric mean over the recordings; "
+                f"fitted on ({_better_in(s, floor)}; cross-validated, the geometric mean over the recordings; "
                 + (f"at least {100 * needed:.0f} % needed)" if needed else "a measured effect must not predict worse)"))
     return None
+
+
+def _better_in(s: Scored, floor: Scored) -> str:
+    """In how many recordings `s` predicts better than the floor: the folds' spread behind the mean gain."""
+    better, compared = s.cv.better_in(floor.cv)
+    return f"better on {better} of {compared} recordings"
 
 
 def _acceptable(s: Scored, none: Scored, friction: Scored | None, world, odb) -> str | None:
@@ -811,7 +817,8 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
         best = max(accepted, key=lambda m: (m.cv.compare(floor.cv) if m.cv is not None and floor.cv is not None
                                             else m.score))
         why = (f"{best.effect} removes {100 * best.cv.compare(floor.cv):.0f} % of what {floor.effect} leaves on "
-               f"recordings neither was fitted on" if best.cv is not None and floor.cv is not None
+               f"recordings neither was fitted on ({_better_in(best, floor)})"
+               if best.cv is not None and floor.cv is not None
                else f"{best.effect} is worth its parameters against {floor.effect}")
         return best.effect, ("; ".join(reasons) + f"; {why}: the verdict") if reasons else None, floor
     tail = "no effect of the catalog is confirmed" + ("" if floor is none else ", the fitted friction is the model")

@@ -98,7 +98,11 @@ def test_the_verdict_is_the_floor_when_no_effect_predicts_better_and_the_best_pr
     assert verdict == "surface_tilt"  # the better prediction wins over the better score
     # the note says why the refused were refused and what the verdict gains, as a whole sentence
     assert "latency removes" in note and note.endswith("surface_tilt removes 82 % of what friction leaves on "
-                                                       "recordings neither was fitted on: the verdict")
+                                                       "recordings neither was fitted on (better on 3 of 3 "
+                                                       "recordings): the verdict")
+    # and how many recordings carry a refused gain: latency predicts a better, b alike, c worse
+    assert "latency removes 2 % of what friction leaves on recordings neither was fitted on (better on 1 of 3" \
+        in note
 
 
 def test_without_cross_validation_the_fits_criteria_decide():
