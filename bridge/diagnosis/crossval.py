@@ -71,17 +71,20 @@ class Prediction:
         tie, no evidence). Every recording weighs alike: one whose leave-one-out refit went wrong (a tilt near the
         friction cone refitted from the two other pushes) cannot outvote the rest, nor can one recording's gain
         carry recordings the model predicts worse (a patch placed where only that push went). Negative: worse."""
-        logs = [np.log(max(c, n) / max(floor.each[name][0], n)) for name, (c, n) in self.each.items()
-                if name in floor.each and max(c, floor.each[name][0]) > n]
+        logs = [np.log(max(c, n) / max(b, n)) for c, b, n in self._compared(floor)]
         return float(1.0 - np.exp(np.mean(logs))) if logs else 0.0
 
     def better_in(self, floor: "Prediction") -> tuple[int, int]:
         """(recordings this model predicts better than `floor`, recordings compared): the spread behind `compare`'s
         mean. A gain that most recordings share is a finding; one that a few carry is not stable (the real ellip3
         pushes gave three verdicts in three revisions on a 22-25 % mean)."""
-        pairs = [(c, floor.each[name][0]) for name, (c, n) in self.each.items()
-                 if name in floor.each and max(c, floor.each[name][0]) > n]
-        return sum(c < b for c, b in pairs), len(pairs)
+        compared = self._compared(floor)
+        return sum(c < b for c, b, _ in compared), len(compared)
+
+    def _compared(self, floor: "Prediction") -> list[tuple[float, float, int]]:
+        """(this chi^2, the floor's, samples) of each recording both predicted and either puts above the noise."""
+        return [(c, floor.each[name][0], n) for name, (c, n) in self.each.items()
+                if name in floor.each and max(c, floor.each[name][0]) > n]
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from ..params.surfaces import support_of
 from ..rollout.compare import PoseError
 from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
-from .effects.base import pname
+from .effects.base import Effect, pname
 from .crossval import Prediction, predict_left_out, prediction
 from .effects.object_scale import outline_radius
 from .loader import NEGLIGIBLE, NOISE_SIGMAS, ContactFit, LoaderEvidence, read_adjustments
@@ -458,9 +458,10 @@ def _friction_parameters(world, odb, target: str) -> list[Parameter]:
 def _work_friction(work: WorkFit | None, friction: Sequence[Parameter], fitted: dict[str, float]
                    ) -> dict[str, float] | None:
     """The fitted coefficients with the sliding one the work the robot did measures, where the two disagree
-    (`WorkFit.disagrees`): a start for the screens. The friction fit bends to what the model lacks (independent
-    MuJoCo hex tilted 1 deg: it fitted 0.09 where the force says 0.34, and from there the true tilt screened worse
-    than level; from the force's coefficient and the work's slope it beats the friction fit by 12 %)."""
+    (`WorkFit.disagrees`): a start for the screens of effects the work seeds (`_friction_starts`). The friction
+    fit bends to what the model lacks (independent MuJoCo hex tilted 1 deg: it fitted 0.09 where the force says
+    0.34, and from there the true tilt screened worse than level; from the force's coefficient and the work's slope
+    it beats the friction fit by 12 %)."""
     sliding = next((p for p in friction if p.kind.name == "sliding_friction"), None)
     if work is None or sliding is None or sliding.target != work.object or not work.disagrees(fitted[sliding.name]):
         return None
@@ -468,7 +469,7 @@ def _work_friction(work: WorkFit | None, friction: Sequence[Parameter], fitted: 
     return {**fitted, sliding.name: float(np.clip(work.coefficient, lo, hi))}
 
 
-def _friction_starts(effect, frictions: list, measured: dict[str, float] | None) -> list:
+def _friction_starts(effect: Effect, frictions: list, measured: dict[str, float] | None) -> list:
     """The friction coefficients an effect's seeds start from, with their coordinates where they have them: the
     fitted and the nominal ones (the friction fit may have taken up what the effect explains, e.g. a heavier
     object's larger push force) and, for an effect whose seeds the work balance reads (`Effect.reads_work`), the

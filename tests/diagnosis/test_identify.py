@@ -9,8 +9,8 @@ from bridge.diagnosis.crossval import Prediction
 from bridge.diagnosis.effects import get_effect
 from bridge.diagnosis.identify import (CV_GAIN, Candidate, Scored, _acceptable, _cv_reason, _friction_parameters,
                                        _friction_starts, _full_fits, _verdict, _with_uncertainty, _work_friction)
-from bridge.diagnosis.work import AGREES, WorkFit
 from bridge.diagnosis.search import FitResult
+from bridge.diagnosis.work import AGREES, WorkFit
 from bridge.params import KINDS, Parameter, ParameterSet
 
 

@@ -20,7 +20,7 @@ import independent_pushes as gen  # noqa: E402
 def test_a_tilt_the_friction_fit_took_for_easier_sliding_is_found_from_the_force(odb, mit_push_root, tmp_path):
     """A hex on a sheet tilted 1 deg (the generator's seed 1): the friction fit bent the sliding coefficient to 0.09
     where the robot's force measures 0.34, and from there the true tilt screened worse than level and a 4.5 mm
-    centre of mass was the verdict. The screens now also start from the measured coefficient."""
+    centre of mass was the verdict. The tilt's screen now also starts from the measured coefficient."""
     from bridge.diagnosis.pipeline import diagnose_paths
 
     folder = gen.make_case(mit_push_root, tmp_path, "hex", "surface_tilt", 1)
