@@ -65,6 +65,9 @@ def run_shape(shape: str, files: list[Path], odb, workers: int, time_step: float
             "time_scales": (data.get("time_scales") or {}).get("taken"),
             "forked": (data.get("forks") or {}).get("forked"),
             "params": (data.get("winner") or {}).get("params") if data["verdict"] != "none" else {},
+            "params_range": ((data.get("winner") or {}).get("cv") or {}).get("params_range", {})
+            if data["verdict"] != "none" else {},
+            "stability": (data.get("cross_validation") or {}).get("stability"),
             "verdict": data["verdict"], "e_before": data["error"]["before"]["e"], "e_after": data["error"]["after"]["e"],
             "held_out_e_before": data["error"].get("held_out_before", {}).get("e"),
             "held_out_e_after": data["error"].get("held_out_after", {}).get("e")}
@@ -116,7 +119,9 @@ def main() -> None:
         entry["shapes"][shape] = r
         print(f"{args.label} {shape}: {r['seconds']:.0f} s, {r['simulations']} simulations "
               f"({r['rollouts']['simulated']} run, {r['rollouts']['cached']} cached), worker CPU {r['worker_cpu_s']:.0f} s, "
-              f"verdict {r['verdict']}", flush=True)
+              f"verdict {r['verdict']}" + (f", the same in {r['stability']['agree']} of "
+                                           f"{r['stability']['selections']} selections with one recording left out"
+                                           if r["stability"] else ""), flush=True)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(results, indent=1) + "\n")
     print(table(results))

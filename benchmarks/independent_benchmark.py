@@ -86,7 +86,13 @@ def run_case(root: Path, shape: str, effect: str, seed: int, pushes: int, hold_o
             "held_out_e_before": e.get("held_out_before", {}).get("e"),
             "held_out_e_after": e.get("held_out_after", {}).get("e"),
             "nominal_rms_sigma": e["before"].get("rms_sigma"), "seconds": round(seconds, 1),
-            "simulations": data["simulations"], "notes": data.get("notes", [])[-3:]}
+            "simulations": data["simulations"], "stability": stability_of(data), "notes": data.get("notes", [])[-3:]}
+
+
+def stability_of(data: dict) -> dict | None:
+    """The verdict's stability (`Stability`: the selection with each recording left out), without the names."""
+    found = (data.get("cross_validation") or {}).get("stability")
+    return {k: found[k] for k in ("agree", "selections", "stable")} if found else None
 
 
 def main() -> None:
@@ -133,6 +139,9 @@ def main() -> None:
         hits = sum(c["right"] for c in cases)
         print(f"{args.label}: {hits} of {len(cases)} right ({100 * hits / len(cases):.0f} %), "
               f"median {sorted(c['seconds'] for c in cases)[len(cases) // 2]:.0f} s a case")
+        unstable = [c for c in cases if c.get("stability") and not c["stability"]["stable"]]
+        print(f"not stable (the verdict changes with one recording left out in half the selections or more): "
+              f"{len(unstable)} ({sum(c['right'] for c in unstable)} of them right)")
 
 
 if __name__ == "__main__":

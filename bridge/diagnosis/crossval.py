@@ -28,7 +28,8 @@ it by up to 35 %: an ordinary model's floor set too high favours every effect (d
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import Counter
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
@@ -48,9 +49,11 @@ HALVINGS = 2  # a long step that fails is halved this many times before the opti
 @dataclass(frozen=True)
 class Prediction:
     """A model's predictions of recordings it was not fitted on: (chi^2, samples) per recording, by name (poses
-    and the robot's force together, each normalised by its noise)."""
+    and the robot's force together, each normalised by its noise), and the parameters of the fit that predicted
+    each (the refit without it: its folds' spread)."""
 
     each: dict[str, tuple[float, int]]
+    params: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def excess(self) -> float:
         """chi^2 above the sensor noise, summed over the recordings (each at least its noise level)."""
@@ -81,10 +84,64 @@ class Prediction:
         compared = self._compared(floor)
         return sum(c < b for c, b, _ in compared), len(compared)
 
+    def spread(self) -> dict[str, tuple[float, float]]:
+        """(least, greatest) of each parameter over the fits that predicted the recordings: how far the refits
+        without one recording moved it. A finding that a single recording carries moves when that one is left out."""
+        values: dict[str, list[float]] = {}
+        for fold in self.params.values():
+            for k, v in fold.items():
+                values.setdefault(k, []).append(v)
+        return {k: (min(v), max(v)) for k, v in sorted(values.items())}
+
+    def without(self, name: str) -> "Prediction":
+        """These predictions without recording `name`: the selection repeated on the other folds."""
+        return Prediction({k: v for k, v in self.each.items() if k != name},
+                          {k: v for k, v in self.params.items() if k != name})
+
     def _compared(self, floor: "Prediction") -> list[tuple[float, float, int]]:
         """(this chi^2, the floor's, samples) of each recording both predicted and either puts above the noise."""
         return [(c, floor.each[name][0], n) for name, (c, n) in self.each.items()
                 if name in floor.each and max(c, floor.each[name][0]) > n]
+
+
+@dataclass(frozen=True)
+class Stability:
+    """The selection repeated with each recording left out of the cross-validated predictions (a jackknife of the
+    verdict, no simulation): a verdict that most of these selections repeat is a finding of the recordings; one
+    that changes when one or two recordings are left out rests on them (real ellip3: three revisions gave three
+    verdicts from the same pushes). Stable when more than half agree. The fits stay as they are, so it is an
+    optimistic reading: diagnosed afresh on folds of the real pushes, verdicts it called stable changed."""
+
+    verdict: str
+    without: dict[str, str]  # recording left out -> the verdict of the selection on the others
+
+    @property
+    def agree(self) -> int:
+        return sum(v == self.verdict for v in self.without.values())
+
+    @property
+    def stable(self) -> bool:
+        return 2 * self.agree > len(self.without)
+
+    def otherwise(self) -> dict[str, int]:
+        """The other verdicts and how many selections gave each, most first."""
+        return dict(Counter(v for v in self.without.values() if v != self.verdict).most_common())
+
+    def sentence(self) -> str:
+        n = len(self.without)
+        if self.agree == n:
+            return f"the verdict ({self.verdict}) is the same with any one of the {n} recordings left out of the " \
+                   "cross-validation (the fits kept): stable"
+        others = ", ".join(f"{v} in {c}" for v, c in self.otherwise().items())
+        head = "stable" if self.stable else "not stable"
+        return (f"{head}: with one of the {n} recordings left out of the cross-validation at a time (the fits "
+                f"kept), the verdict "
+                f"({self.verdict}) is the same in {self.agree} of {n} selections ({others})"
+                + ("" if self.stable else "; it rests on a few recordings, more recordings would settle it"))
+
+    def to_json(self) -> dict:
+        return {"agree": self.agree, "selections": len(self.without), "stable": self.stable,
+                "without": dict(self.without)}
 
 
 @dataclass(frozen=True)
@@ -118,18 +175,19 @@ def leave_one_out_points(result: FitResult) -> list[LeftOut]:
     return out
 
 
-def _checked(ev: Evaluator, result: FitResult, left: list[LeftOut]) -> dict[int, Run]:
+def _checked(ev: Evaluator, result: FitResult, left: list[LeftOut]) -> dict[int, tuple[Run, np.ndarray]]:
     """The predictions of the recordings whose leave-one-out step moves the point, each step checked on the other
     recordings as a trust-region refit would: kept when the others' objective falls by at least ACCEPT of what
     the linear model promised; else the optimum, where the others are content, is the refit without the
     recording, after a step longer than CHECK_STEP has been halved (at most HALVINGS times) in vain. Only the
-    other recordings decide, so no recording predicts itself. By position in `ev.indices`."""
+    other recordings decide, so no recording predicts itself. By position in `ev.indices`: the run and the point
+    (normalised) that predicted it."""
     x, space = result.x, result.space
     base = [run.chi2 for run in result.runs]
     prior = PRIOR * float(x @ x)
     pending = {k: lo for k, lo in enumerate(left) if np.max(np.abs(lo.x - x), initial=0.0) > 0.0}
     halvings = {k: HALVINGS if np.max(np.abs(lo.x - x)) > CHECK_STEP else 0 for k, lo in pending.items()}
-    done: dict[int, Run] = {}
+    done: dict[int, tuple[Run, np.ndarray]] = {}
     while pending:
         keys = list(pending)
         runs = ev.runs_many([space.model(space.from_normal(pending[k].x)) for k in keys])
@@ -137,31 +195,36 @@ def _checked(ev: Evaluator, result: FitResult, left: list[LeftOut]) -> dict[int,
             lo = pending.pop(k)
             fell = sum(base[j] - rs[j].chi2 for j in range(len(rs)) if j != k) + prior - PRIOR * float(lo.x @ lo.x)
             if fell >= ACCEPT * lo.promised:
-                done[k] = rs[k]
+                done[k] = rs[k], lo.x
             elif halvings[k] > 0:
                 halvings[k] -= 1
                 pending[k] = LeftOut(x + (lo.x - x) / 2, lo.promised / 2)  # a halved step promises about half
             else:
-                done[k] = result.runs[k]
+                done[k] = result.runs[k], x
     return done
 
 
-def predict_left_out(runner: Runner, ev: Evaluator, result: FitResult) -> tuple[FitResult, list[Run]]:
+def predict_left_out(runner: Runner, ev: Evaluator, result: FitResult
+                     ) -> tuple[FitResult, list[Run], list[dict[str, float]]]:
     """Each training recording of `ev` replayed with the model refitted without it (`leave_one_out_points`,
     every step `_checked`); returns `result` with its Jacobian differenced at the optimum (reused for the
-    uncertainty) and the runs. A model without parameters predicts with itself (its runs)."""
+    uncertainty), the runs and the parameters (by name) that predicted each. A model without parameters predicts
+    with itself (its runs)."""
     if result.space.dim == 0:
-        return result, list(result.runs)
+        return result, list(result.runs), [{} for _ in result.runs]
     result = differenced(ev, result)
     left = leave_one_out_points(result)
     checked = _checked(ev, result, left)
     still = [k for k in range(len(left)) if k not in checked]  # a step that does not move: the optimum predicts
-    runs = runner.run_pairs([(result.space.model(result.space.from_normal(left[k].x)), ev.indices[k])
-                             for k in still])
-    predicted = {**checked, **dict(zip(still, runs))}
-    return result, [predicted[k] for k in range(len(left))]
+    space = result.space
+    runs = runner.run_pairs([(space.model(space.from_normal(left[k].x)), ev.indices[k]) for k in still])
+    predicted = {**checked, **{k: (run, left[k].x) for k, run in zip(still, runs)}}
+    ordered = [predicted[k] for k in range(len(left))]
+    return result, [run for run, _ in ordered], [space.as_dict(space.from_normal(x)) for _, x in ordered]
 
 
-def prediction(runs: Sequence[Run]) -> Prediction:
-    """The cross-validated predictions, one run per recording (each from a fit that did not see it)."""
-    return Prediction({r.trial: (r.chi2, int(r.normalised.size)) for r in runs})
+def prediction(runs: Sequence[Run], params: Sequence[dict[str, float]] = ()) -> Prediction:
+    """The cross-validated predictions, one run per recording (each from a fit that did not see it), with the
+    parameters of that fit where known (in the order of `runs`)."""
+    return Prediction({r.trial: (r.chi2, int(r.normalised.size)) for r in runs},
+                      {r.trial: dict(p) for r, p in zip(runs, params)})

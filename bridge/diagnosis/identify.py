@@ -36,7 +36,7 @@ from ..rollout.compare import PoseError
 from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
 from .effects.base import Effect, pname
-from .crossval import Prediction, predict_left_out, prediction
+from .crossval import Prediction, Stability, predict_left_out, prediction
 from .effects.object_scale import outline_radius
 from .loader import NEGLIGIBLE, NOISE_SIGMAS, ContactFit, LoaderEvidence, read_adjustments
 from .locate import Localisation, locate
@@ -59,6 +59,7 @@ FRAME_FLOOR = (0.001, math.radians(1.0))  # m, rad: the least uncertainty grante
 SIZE_SPREAD = 0.5  # share of a fitted size's move of the outline granted to the gaps' reading of it: where the
 #                    rod meets the outline, its distance from the centre differs from `outline_radius` by up to
 #                    that (10-25 % on the dataset's convex shapes, 50 % on the non-convex butter)
+MIN_FOLDS = 3  # recordings cross-validated for the verdict's stability to be read (`_stability`)
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
 
 
@@ -143,6 +144,9 @@ class Scored:
                          "excess_reduction": round(self.cv_share, 4) if self.cv_share is not None else None,
                          "rms_sigma_each": {k: round(math.sqrt(c / n), 3) if n else None
                                             for k, (c, n) in self.cv.each.items()}}
+            if self.cv.spread():
+                out["cv"]["params_range"] = {k: [float(f"{lo:.6g}"), float(f"{hi:.6g}")]
+                                             for k, (lo, hi) in self.cv.spread().items()}
         return out
 
 
@@ -165,6 +169,7 @@ class Identification:
     floor: str | None = None  # the ordinary model every effect was cross-validated against (None: no cross-validation)
     frame: FrameFit | None = None  # the recorded frame the pushing samples imply (`outline`), before any simulation
     work: WorkFit | None = None  # the friction and slope the work the robot did implies (`work`), before any simulation
+    stability: Stability | None = None  # the verdict with each recording left out of the cross-validation
 
     @property
     def partial(self) -> bool:
@@ -400,6 +405,10 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     verdict, check, floor = _verdict(scored, world, odb)
     if check:
         notes.append(check)
+    stability = _stability(scored, verdict, world, odb)
+    if stability is not None:
+        notes.append(stability.sentence())
+        say(notes[-1])
     scored = _rank(scored, verdict, floor)
     scored = _winner_uncertainty(ev, scored, verdict, fits, tau)
     weight = _weight_note(next(s for s in scored if s.effect == verdict), loc, world, odb)
@@ -416,7 +425,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
                           held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame,
-                          work)
+                          work, stability)
 
 
 def _fit_key(s: Scored) -> tuple[str, str | None]:
@@ -826,6 +835,20 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
     return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
 
 
+def _stability(scored: list[Scored], verdict: str, world, odb) -> Stability | None:
+    """`_verdict` repeated on the cross-validated predictions without each recording in turn (`Stability`): the
+    fits stay as they are, only the recordings the selection weighs change. None without cross-validation on at
+    least MIN_FOLDS recordings (leaving one of two out leaves one recording to decide)."""
+    from dataclasses import replace
+
+    none = next(s for s in scored if s.effect == "none")
+    if none.cv is None or len(none.cv.each) < MIN_FOLDS:
+        return None
+    without = {name: _verdict([replace(s, cv=s.cv.without(name)) if s.cv is not None else s for s in scored],
+                              world, odb)[0] for name in none.cv.each}
+    return Stability(verdict, without)
+
+
 def _weight_note(winner: Scored, loc: Localisation, world, odb) -> str | None:
     """What the report says when the verdict moved an object's weight or its sliding coefficient: a quasi-static
     push measures only their product (the force it takes is mu m g, and the path does not depend on it), so a
@@ -910,11 +933,16 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
         nonlocal fits
         if s.effect == "none":
             runs = list(loc.runs) if loo else []
+            params, fitted = [{}] * len(runs), {}
         else:
             key = ("friction", None) if s.effect == "friction" else (s.effect, s.target)
-            fit_result, runs = predict_left_out(runner, ev, fits[key]) if loo else (fits[key], [])
-            fits = {**fits, key: fit_result}
-        return replace(s, cv=prediction(list(runs) + list(s.held_out_runs)))
+            fit_result, runs, params = predict_left_out(runner, ev, fits[key]) if loo else (fits[key], [], [])
+            fits, fitted = {**fits, key: fit_result}, fit_result.values()
+
+        def own(values: dict[str, float]) -> dict[str, float]:
+            return {k: v for k, v in values.items() if k in s.params}
+        held = list(s.held_out_runs)  # predicted by the fit on every fitted recording
+        return replace(s, cv=prediction(list(runs) + held, [own(p) for p in params] + [own(fitted)] * len(held)))
 
     by = {s.effect: s for s in scored if s.effect in ("none", "friction")}
     none = validated(by["none"])

@@ -21,8 +21,8 @@ from ..timelimit import TimeLimit
 from .forks import measure_forks
 from .identify import Identification, Options, identify, measured_model
 from .locate import Localisation, locate
-from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, plot_paths, plot_residuals, plot_scores, report_markdown,
-                     write_outputs)
+from .report import (MAX_RESIDUAL_PLOTS, diagnosis_json, parameters_text, plot_paths, plot_residuals, plot_scores,
+                     report_markdown, write_outputs)
 from .runs import Runner, choose_time_scales, choose_time_step, default_workers, prepare
 
 RESIDUAL_RATE = 25.0  # Hz at which observed and simulated poses are compared
@@ -189,8 +189,7 @@ def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | 
 def summary_text(run: DiagnosisRun) -> str:
     ident, data = run.identification, run.data
     w = ident.winner
-    lines = [f"verdict: {ident.verdict}" + (f" on {w.target}: " + ", ".join(
-        f"{k} = {v:.4g} +- {w.std.get(k, math.nan):.2g}" for k, v in w.params.items()) if ident.verdict != "none" else "")
+    lines = [f"verdict: {ident.verdict}" + (f" on {w.target}: " + parameters_text(w) if ident.verdict != "none" else "")
              + (" (partial: stopped at the time limit)" if ident.partial else "")]
     if ident.runner_up is not None:
         lines.append(f"runner-up: {ident.runner_up.effect} on {ident.runner_up.target} (margin {ident.margin:.1f})")

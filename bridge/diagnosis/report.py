@@ -59,7 +59,9 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
         "recordings": {"train": list(ident.train), "held_out": list(ident.held_out)},
         "noise": dict(noise or noise_summary(ident.localisation)),
         "cross_validation": ({"floor": ident.floor, "recordings": len(ident.train) + len(ident.held_out),
-                              "cv_gain": CV_GAIN} if ident.floor is not None else None),
+                              "cv_gain": CV_GAIN,
+                              "stability": ident.stability.to_json() if ident.stability is not None else None}
+                             if ident.floor is not None else None),
         "correlation_time": round(ident.tau, 3),
         "scene_file": scene_file,
         "simulation_failures": dict(failures or {"count": 0, "first": []}),
@@ -120,6 +122,15 @@ def noise_summary(loc: Localisation) -> dict[str, float]:
     return out
 
 
+def parameters_text(s, plus_minus: str = "+-") -> str:
+    """A fitted model's own parameters with their 1 sigma and, where it was cross-validated, the range the refits
+    without one recording span (`Prediction.spread`): how much the finding hangs on single recordings."""
+    spread = s.cv.spread() if s.cv is not None else {}
+    return ", ".join(f"{k} = {v:.4g} {plus_minus} {s.std.get(k, math.nan):.2g}"
+                     + (f" (refits without one recording: {spread[k][0]:.4g} to {spread[k][1]:.4g})"
+                        if k in spread else "") for k, v in s.params.items())
+
+
 # --- markdown -----------------------------------------------------------------------------------------------
 def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Sequence[str]) -> str:
     w, r = ident.winner, ident.runner_up
@@ -131,10 +142,12 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
         lines += [f"**Partial result: the time limit{f' of {limit:g} s' if limit else ''} stopped the search** "
                   "before every candidate was screened and fitted; the verdict is the best of what was tried.", ""]
     if ident.verdict != "none":
-        params = ", ".join(f"{k} = {v:.4g} ± {w.std.get(k, math.nan):.2g}" for k, v in w.params.items())
-        lines += [f"- parameters: {params}"]
+        lines += [f"- parameters: {parameters_text(w, '±')}"]
         if w.derived:
             lines += ["- derived: " + ", ".join(f"{k} = {v:.3g}" for k, v in w.derived.items())]
+    if ident.stability is not None:
+        lines += [f"- stability: {ident.stability.agree} of {len(ident.stability.without)} selections with one "
+                  f"recording left out give `{ident.verdict}`" + ("" if ident.stability.stable else " (not stable)")]
     if r is not None:
         lines += [f"- runner-up: `{r.effect}` on `{r.target}`; margin {ident.margin:.1f} (log evidence, BIC/2)"]
     lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"

@@ -75,12 +75,13 @@ def test_a_long_leave_one_out_step_the_other_recordings_refuse_keeps_the_optimum
         asked.append(float(p[0]))
         return [10.0 + 40 * p[0] ** 2] * 3
     done = _checked(_fake_evaluator(rising_chi2), result, left)
-    assert all(done[k] is at_x[k] for k in range(3))  # every step refused: each recording keeps the optimum
+    assert all(done[k][0] is at_x[k] for k in range(3))  # every step refused: each recording keeps the optimum
+    assert all(done[k][1] is x for k in range(3))  # and its parameters: the refit's spread shows none
     assert sorted(asked) == [0.1, 0.1, 0.625, 1.25, 2.5] and 2.5 > CHECK_STEP  # the long one halved twice first
     falling = _fake_evaluator(lambda p: [10.0 - 4 * p[0]] * 3)  # the others do gain along it: the step is kept
     done = _checked(falling, result, left)
-    assert done[0] is not at_x[0] and done[0].trial == 0
-    assert all(done[k] is not at_x[k] for k in (1, 2))  # the short steps too, once checked
+    assert done[0][0] is not at_x[0] and done[0][0].trial == 0 and done[0][1][0] == 2.5
+    assert all(done[k][0] is not at_x[k] for k in (1, 2))  # the short steps too, once checked
 
 
 def test_a_short_leave_one_out_step_the_others_refuse_is_not_a_prediction():
@@ -96,7 +97,17 @@ def test_a_short_leave_one_out_step_the_others_refuse_is_not_a_prediction():
     # a noisy landscape: moving either way raises every recording's chi^2 by a little (the others are content)
     flat = _fake_evaluator(lambda p: [100.0 + 5.0 * float(np.abs(p).sum())] * 4)
     done = _checked(flat, result, left)
-    assert all(done[k] is at_x[k] for k in range(4))
+    assert all(done[k][0] is at_x[k] for k in range(4))
+
+
+def test_the_spread_is_the_range_of_each_parameter_over_the_refits_and_leaving_a_recording_out_drops_it():
+    n = 100
+    cv = Prediction({"a": (200.0, n), "b": (300.0, n), "c": (150.0, n)},
+                    {"a": {"x": 0.02, "y": 1.0}, "b": {"x": 0.03, "y": 1.0}, "c": {"x": -0.01, "y": 1.2}})
+    assert cv.spread() == {"x": (-0.01, 0.03), "y": (1.0, 1.2)}
+    rest = cv.without("c")
+    assert set(rest.each) == {"a", "b"} and rest.spread() == {"x": (0.02, 0.03), "y": (1.0, 1.0)}
+    assert Prediction({"a": (200.0, n)}).spread() == {}  # a model without parameters has no spread
 
 
 def test_compare_is_the_geometric_mean_of_the_recordings_ratios_above_the_noise_floor():

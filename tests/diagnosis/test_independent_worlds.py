@@ -34,3 +34,14 @@ def test_a_tilt_the_friction_fit_took_for_easier_sliding_is_found_from_the_force
     off = math.remainder(math.atan2(sy, sx) - math.atan2(truth[1], truth[0]), 2 * math.pi)
     assert abs(math.degrees(off)) < 20.0
     assert 0.5 < math.hypot(sx, sy) / math.hypot(*truth) < 1.5
+    # the finding is the recordings', not one push's: every refit without one recording tilts downhill the same
+    # way, and the verdict holds with any one recording left out of the selection
+    folds = [v for v in winner.cv.params.values() if v]
+    assert len(folds) == len(winner.cv.each) == 8
+    for fold in folds:
+        turn = math.atan2(fold["surface_slope_y[surface]"], fold["surface_slope_x[surface]"])
+        assert abs(math.degrees(math.remainder(turn - math.atan2(truth[1], truth[0]), 2 * math.pi))) < 30.0
+    assert ident.stability is not None and ident.stability.stable, ident.stability.sentence()
+    data = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
+    assert data["cross_validation"]["stability"]["agree"] == ident.stability.agree
+    assert set(data["winner"]["cv"]["params_range"]) == set(winner.params)
