@@ -22,6 +22,10 @@ push is held out once and scored by what was fitted on the others. Columns:
   drake_gap    Drake with the rod offset D that the training folds' contact gaps imply (the loader's evidence,
                `bridge.diagnosis.loader.ContactFit`: no simulation, no fit), applied to the held-out push's
                telemetry; D = 0 when the training pushes do not make it evident
+  drake_diag   Drake with the model `bridge diagnose` chooses on the training folds (friction and the verdict's
+               effect; the whole diagnosis per fold, every training push cross-validated inside it: only with
+               --diagnose, expensive). Each fold's verdict, parameters, their spread over the diagnosis's own
+               refits and its stability are kept: the verdict per shape is stable when most folds give it
 
 Scores per held-out push: final-pose error (mm, deg: the last observation) and the paper's trajectory error
 e_t (mm), e_R (deg) over the observed track (`bridge.rollout.compare`, eq. 1-4). Median and p90 per shape and
@@ -32,6 +36,7 @@ over all pushes; one table; JSON in benchmarks/results/real_push.json.
     python benchmarks/real_push_benchmark.py --drake-fit ellip1    # all shapes, Drake also fitted on ellip1's folds
     python benchmarks/real_push_benchmark.py --support-grid 0.5 0.6 0.7 0.8 0.9 1.1 1.2   # drake_ps
     python benchmarks/real_push_benchmark.py --aniso-grid 0.15 0.3                        # drake_an
+    python benchmarks/real_push_benchmark.py --diagnose --merge    # drake_diag, the other columns kept from the JSON
 """
 from __future__ import annotations
 
@@ -41,6 +46,7 @@ import math
 import platform
 import sys
 import time
+from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 
@@ -64,7 +70,7 @@ from bridge.rollout.limit_surface import (fit_pusher_friction, push_residuals, p
 from bridge.rollout.rollout import Job  # noqa: E402
 from bridge.sim.friction import combined_friction  # noqa: E402
 
-COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an", "drake_gap")
+COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an", "drake_gap", "drake_diag")
 METRICS = ("final_mm", "final_deg", "e_t_mm", "e_R_deg")
 MAX_FOLDS = 5
 ROD = "pusher/pusher_rod"
@@ -89,6 +95,12 @@ def main(argv=None) -> None:
     parser.add_argument("--aniso-grid", nargs="*", type=float, default=None, metavar="A",
                         help="the drake_an column: anisotropies a to try, each along --aniso-directions grains")
     parser.add_argument("--aniso-directions", type=int, default=4, help="grain directions over 180 deg (default 4)")
+    parser.add_argument("--diagnose", nargs="*", default=None, metavar="SHAPE",
+                        help="the drake_diag column: `bridge diagnose` on each fold's training pushes (slow: minutes "
+                             "a fold), on the shapes named, or on all without names")
+    parser.add_argument("--workers", type=int, default=2, help="processes of each fold's diagnosis (default 2)")
+    parser.add_argument("--merge", action="store_true",
+                        help="keep the columns this run does not compute (and the shapes it does not run) from --json")
     parser.add_argument("--json", default=str(REPO / "benchmarks" / "results" / "real_push.json"))
     args = parser.parse_args(argv)
     if args.trials is not None and args.trials < 1:
@@ -108,21 +120,59 @@ def main(argv=None) -> None:
             shape_started = time.perf_counter()
             trials = load_trials(paths, odb)
             drake_fit = args.drake_fit is not None and (not args.drake_fit or shape in args.drake_fit)
-            shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations, grid_models(args))
+            diagnose = args.diagnose is not None and (not args.diagnose or shape in args.diagnose)
+            shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations, grid_models(args),
+                                                paths if diagnose else None, args.workers)
             rows.extend(dict(r, shape=shape) for r in shape_rows)
             print(f"{shape}: {len(trials)} pushes, {time.perf_counter() - shape_started:.0f} s", flush=True)
-    summary = summarise(rows)
-    print_table(summary, fits, args.drake_fit is not None)
     out = Path(args.json)
+    meta = {"data": "MIT planar pushing, Yu et al. IROS 2016 (arXiv:1604.04038), shared subset train/",
+            "mode": "quick" if args.quick else "full", "per_shape": per_shape, "drake_fit": args.drake_fit,
+            "drake_fit_iterations": iterations if args.drake_fit is not None else None, "folds": f"min({MAX_FOLDS}, n)",
+            "support_grid": args.support_grid, "aniso_grid": args.aniso_grid, "diagnose": args.diagnose,
+            "machine": platform.platform(), "total_s": round(time.perf_counter() - started, 1)}
+    if args.merge and out.is_file():
+        meta, rows, fits = merged(json.loads(out.read_text()), meta, rows, fits)
+    summary = summarise(rows)
+    print_table(summary, fits, "drake_fit" in summary.get("all", {}))
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({
-        "data": "MIT planar pushing, Yu et al. IROS 2016 (arXiv:1604.04038), shared subset train/",
-        "mode": "quick" if args.quick else "full", "per_shape": per_shape, "drake_fit": args.drake_fit,
-        "drake_fit_iterations": iterations if args.drake_fit is not None else None, "folds": f"min({MAX_FOLDS}, n)",
-        "support_grid": args.support_grid, "aniso_grid": args.aniso_grid,
-        "machine": platform.platform(), "total_s": round(time.perf_counter() - started, 1),
-        "summary": summary, "fits": fits, "trials": rows}, indent=1) + "\n")
+    out.write_text(json.dumps({**meta, "summary": summary, "fits": fits, "trials": rows}, indent=1) + "\n")
     print(f"wrote {out} ({time.perf_counter() - started:.0f} s)")
+
+
+def merged(old: dict, meta: dict, rows: list[dict], fits: dict) -> tuple[dict, list[dict], dict]:
+    """This run's results over an earlier file's: a push's columns this run computed replace the earlier ones, the
+    others (an earlier --drake-fit, grid or --diagnose) stay; so do the shapes this run did not touch. Settings
+    this run left unset keep the earlier file's values; the earlier total time is kept beside this one's."""
+    new = {(r["shape"], r["trial"]): r for r in rows}
+    kept = [{**r, **new.pop((r["shape"], r["trial"]), {})} for r in old.get("trials", [])]
+    meta = {**{k: v for k, v in old.items() if k not in ("summary", "fits", "trials")},
+            **{k: v for k, v in meta.items() if v is not None}, "earlier_total_s": old.get("total_s")}
+    out_fits = dict(old.get("fits", {}))
+    for shape, fit in fits.items():
+        earlier = {f["fold"]: f for f in out_fits.get(shape, {}).get("folds", [])}
+        folds = [{**earlier.get(f["fold"], {}), **f} for f in fit["folds"]]
+        out_fits[shape] = {**out_fits.get(shape, {}), **fit, "folds": folds}
+    return meta, kept + list(new.values()), out_fits
+
+
+def diagnose_fold(paths: list[Path], train: list[int], odb, workers: int) -> tuple[tuple, dict]:
+    """`bridge diagnose` on the training pushes (MIT pushes loaded as the command loads them; every one fitted,
+    cross-validated inside the diagnosis): its model (friction and the verdict's effect) and what the fold reports."""
+    from bridge.diagnosis.pipeline import run_diagnosis
+
+    started = time.perf_counter()
+    trials = load_trials([paths[i] for i in train], odb, observation_rate=250.0)
+    run = run_diagnosis(trials, odb, None, held_out=0, workers=workers, plots=False)
+    ident, data = run.identification, run.data
+    winner = data.get("winner") or {}
+    entry = {"verdict": ident.verdict, "params": winner.get("params", {}) if ident.verdict != "none" else {},
+             "params_range": (winner.get("cv") or {}).get("params_range", {}) if ident.verdict != "none" else {},
+             "model": winner.get("model", []),
+             "stability": ((data.get("cross_validation") or {}).get("stability") or {}).get("agree"),
+             "selections": ((data.get("cross_validation") or {}).get("stability") or {}).get("selections"),
+             "simulations": data["simulations"], "wall_s": round(time.perf_counter() - started, 1)}
+    return ident.model(), entry
 
 
 def select_files(train: Path, shapes: list[str] | None, per_shape: int | None) -> dict[str, list[Path]]:
@@ -182,7 +232,8 @@ def replay_grid(trials, pushed, odb, executor, models: dict[str, tuple]) -> dict
 
 
 def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
-              grids: dict[str, dict[str, tuple]] | None = None) -> tuple[list[dict], dict]:
+              grids: dict[str, dict[str, tuple]] | None = None, diagnose: list[Path] | None = None,
+              workers: int = 2) -> tuple[list[dict], dict]:
     pushed = [pushed_object(t, odb) for t in trials]
     mu_s0, mu_p0 = nominal_friction(trials[0], odb, pushed[0])
     k = min(MAX_FOLDS, len(trials))
@@ -234,6 +285,14 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
             entry.update(drake_values=dict(result.values), drake_train_e_mm=[1e3 * result.before.e, 1e3 * result.after.e],
                          drake_simulations=result.simulations, drake_wall_s=round(time.perf_counter() - started, 1))
             print(f"  fold {f}: Drake fit {entry['drake_values']} in {entry['drake_wall_s']:.0f} s", flush=True)
+        if diagnose is not None:
+            model, entry["diagnosis"] = diagnose_fold(diagnose, train, odb, workers)
+            held_out = executor.run([Job(trial_rollout(trials[i], model, odb), sim_options(trials[i])) for i in held])
+            for i, outcome in zip(held, held_out):
+                rows[i]["drake_diag"] = None if outcome.failed else scores(residuals_of(trials[i], outcome.result, odb))
+            d = entry["diagnosis"]
+            print(f"  fold {f}: diagnosis {d['verdict']} {d['params']} (the same in {d['stability']} of "
+                  f"{d['selections']} selections) in {d['wall_s']:.0f} s", flush=True)
         for column, by_model in replayed.items():  # the grid's model of least training E (the paper's E)
             def training_e(label: str) -> float:
                 got = [by_model[label][i] for i in train]
@@ -290,6 +349,11 @@ def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
         for column in ("drake_ps", "drake_an"):
             if any(column in f for f in fit["folds"]):
                 line += f"; {column} " + ", ".join(f[column]["chosen"] for f in fit["folds"] if column in f)
+        verdicts = [f["diagnosis"]["verdict"] for f in fit["folds"] if "diagnosis" in f]
+        if verdicts:
+            top, count = Counter(verdicts).most_common(1)[0]
+            line += (f"; diagnosis {', '.join(verdicts)}: {top} in {count} of {len(verdicts)} folds"
+                     + ("" if 2 * count > len(verdicts) else " (not stable)"))
         if any("drake_values" in f for f in fit["folds"]):
             line += "; Drake " + "; ".join(", ".join(f"{k.split('[')[1][:-1]} {v:.2f}" for k, v in f["drake_values"].items())
                                            for f in fit["folds"] if "drake_values" in f)
