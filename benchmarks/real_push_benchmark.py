@@ -110,8 +110,14 @@ def main(argv=None) -> None:
         print("MIT planar pushing dataset not found: set BRIDGE_MIT_PUSH (the folder holding train/ and obj/)")
         return
     per_shape = 3 if args.quick and args.trials is None else args.trials
+    if args.merge and per_shape is not None:
+        parser.error("--merge needs every push (no --quick, no --trials): the folds of fewer pushes are other folds")
     iterations = 2 if args.quick else args.drake_fit_iterations
     files = select_files(root / "train", args.shapes, per_shape)
+    for option, named in (("--drake-fit", args.drake_fit), ("--diagnose", args.diagnose)):
+        unknown = sorted(set(named or ()) - set(files))
+        if unknown:  # else that shape would silently go without the column
+            parser.error(f"{option}: {', '.join(unknown)} not among the shapes run ({', '.join(files)})")
     odb = load_object_database()
     started = time.perf_counter()
     rows, fits = [], {}
@@ -121,8 +127,10 @@ def main(argv=None) -> None:
             trials = load_trials(paths, odb)
             drake_fit = args.drake_fit is not None and (not args.drake_fit or shape in args.drake_fit)
             diagnose = args.diagnose is not None and (not args.diagnose or shape in args.diagnose)
+            # as `bridge diagnose` loads them: the motion capture at its full rate (read once, a subset per fold)
+            diagnosed = load_trials(paths, odb, observation_rate=250.0) if diagnose else None
             shape_rows, fits[shape] = run_shape(trials, odb, executor, drake_fit, iterations, grid_models(args),
-                                                paths if diagnose else None, args.workers)
+                                                diagnosed, args.workers)
             rows.extend(dict(r, shape=shape) for r in shape_rows)
             print(f"{shape}: {len(trials)} pushes, {time.perf_counter() - shape_started:.0f} s", flush=True)
     out = Path(args.json)
@@ -156,21 +164,19 @@ def merged(old: dict, meta: dict, rows: list[dict], fits: dict) -> tuple[dict, l
     return meta, kept + list(new.values()), out_fits
 
 
-def diagnose_fold(paths: list[Path], train: list[int], odb, workers: int) -> tuple[tuple, dict]:
-    """`bridge diagnose` on the training pushes (MIT pushes loaded as the command loads them; every one fitted,
-    cross-validated inside the diagnosis): its model (friction and the verdict's effect) and what the fold reports."""
+def diagnose_fold(trials: list, train: list[int], odb, workers: int) -> tuple[tuple, dict]:
+    """`bridge diagnose` on the training pushes (every one fitted, cross-validated inside the diagnosis): its model
+    (friction and the verdict's effect) and what the fold reports."""
     from bridge.diagnosis.pipeline import run_diagnosis
 
     started = time.perf_counter()
-    trials = load_trials([paths[i] for i in train], odb, observation_rate=250.0)
-    run = run_diagnosis(trials, odb, None, held_out=0, workers=workers, plots=False)
+    run = run_diagnosis([trials[i] for i in train], odb, None, held_out=0, workers=workers, plots=False)
     ident, data = run.identification, run.data
-    winner = data.get("winner") or {}
-    entry = {"verdict": ident.verdict, "params": winner.get("params", {}) if ident.verdict != "none" else {},
-             "params_range": (winner.get("cv") or {}).get("params_range", {}) if ident.verdict != "none" else {},
-             "model": winner.get("model", []),
-             "stability": ((data.get("cross_validation") or {}).get("stability") or {}).get("agree"),
-             "selections": ((data.get("cross_validation") or {}).get("stability") or {}).get("selections"),
+    winner = (data.get("winner") or {}) if ident.verdict != "none" else {}
+    stability = (data.get("cross_validation") or {}).get("stability") or {}
+    entry = {"verdict": ident.verdict, "params": winner.get("params", {}),
+             "params_range": (winner.get("cv") or {}).get("params_range", {}), "model": winner.get("model", []),
+             "stability": stability.get("agree"), "selections": stability.get("selections"),
              "simulations": data["simulations"], "wall_s": round(time.perf_counter() - started, 1)}
     return ident.model(), entry
 
@@ -232,7 +238,7 @@ def replay_grid(trials, pushed, odb, executor, models: dict[str, tuple]) -> dict
 
 
 def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
-              grids: dict[str, dict[str, tuple]] | None = None, diagnose: list[Path] | None = None,
+              grids: dict[str, dict[str, tuple]] | None = None, diagnose: list | None = None,
               workers: int = 2) -> tuple[list[dict], dict]:
     pushed = [pushed_object(t, odb) for t in trials]
     mu_s0, mu_p0 = nominal_friction(trials[0], odb, pushed[0])
@@ -291,8 +297,8 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
             for i, outcome in zip(held, held_out):
                 rows[i]["drake_diag"] = None if outcome.failed else scores(residuals_of(trials[i], outcome.result, odb))
             d = entry["diagnosis"]
-            print(f"  fold {f}: diagnosis {d['verdict']} {d['params']} (the same in {d['stability']} of "
-                  f"{d['selections']} selections) in {d['wall_s']:.0f} s", flush=True)
+            steady = f" (the same in {d['stability']} of {d['selections']} selections)" if d["selections"] else ""
+            print(f"  fold {f}: diagnosis {d['verdict']} {d['params']}{steady} in {d['wall_s']:.0f} s", flush=True)
         for column, by_model in replayed.items():  # the grid's model of least training E (the paper's E)
             def training_e(label: str) -> float:
                 got = [by_model[label][i] for i in train]

@@ -144,9 +144,10 @@ class Scored:
                          "excess_reduction": round(self.cv_share, 4) if self.cv_share is not None else None,
                          "rms_sigma_each": {k: round(math.sqrt(c / n), 3) if n else None
                                             for k, (c, n) in self.cv.each.items()}}
-            if self.cv.spread():
+            spread = self.cv.spread()
+            if spread:
                 out["cv"]["params_range"] = {k: [float(f"{lo:.6g}"), float(f"{hi:.6g}")]
-                                             for k, (lo, hi) in self.cv.spread().items()}
+                                             for k, (lo, hi) in spread.items()}
         return out
 
 
