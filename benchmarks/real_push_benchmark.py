@@ -22,6 +22,11 @@ push is held out once and scored by what was fitted on the others. Columns:
   drake_gap    Drake with the rod offset D that the training folds' contact gaps imply (the loader's evidence,
                `bridge.diagnosis.loader.ContactFit`: no simulation, no fit), applied to the held-out push's
                telemetry; D = 0 when the training pushes do not make it evident
+  drake_cone   Drake with the rod's friction the force's direction reads on the training folds while the rod slid
+               (`bridge.diagnosis.cone`: the recordings' reading over the nominal replays', a factor on the model's
+               rod pair; no pose fit); nominal where the force is not trusted (rect1) or the rod never slid
+  drake_read   Drake with both readings of the training folds, the rod offset of drake_gap and the rod friction
+               of drake_cone: everything the recordings measure before any simulation, no pose fit
   drake_diag   Drake with the model `bridge diagnose` chooses on the training folds (friction and the verdict's
                effect; the whole diagnosis per fold, every training push cross-validated inside it: only with
                --diagnose, expensive). Each fold's verdict, parameters, their spread over the diagnosis's own
@@ -56,6 +61,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from bridge.fit.evaluate import residuals_of, sim_options  # noqa: E402
+from bridge.diagnosis.cone import contact_friction, simulated_contact_friction  # noqa: E402
 from bridge.diagnosis.loader import read_adjustments  # noqa: E402
 from bridge.diagnosis.runs import prepare  # noqa: E402
 from bridge.fit.fit import fit_parameters  # noqa: E402
@@ -70,7 +76,8 @@ from bridge.rollout.limit_surface import (fit_pusher_friction, push_residuals, p
 from bridge.rollout.rollout import Job  # noqa: E402
 from bridge.sim.friction import combined_friction  # noqa: E402
 
-COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an", "drake_gap", "drake_diag")
+COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an", "drake_gap", "drake_cone",
+           "drake_read", "drake_diag")
 METRICS = ("final_mm", "final_deg", "e_t_mm", "e_R_deg")
 MAX_FOLDS = 5
 ROD = "pusher/pusher_rod"
@@ -181,6 +188,17 @@ def diagnose_fold(trials: list, train: list[int], odb, workers: int) -> tuple[tu
     return ident.model(), entry
 
 
+def rod_cone(trials: list, outcomes: list, odb, obj: str) -> tuple[dict | None, float]:
+    """The rod's friction the force's direction reads on the recordings and on their nominal replays, and the
+    factor on the model's rod pair it asks for (recorded / replayed; 1 where either cannot be read)."""
+    recorded = contact_friction(trials, odb, obj)
+    replayed = simulated_contact_friction(trials, [None if o.failed else o.result for o in outcomes], odb, obj)
+    if recorded is None or replayed is None:
+        return None, 1.0
+    factor = recorded.coefficient / replayed.coefficient
+    return {"recorded": recorded.to_json(), "replayed": replayed.to_json(), "factor": round(factor, 4)}, factor
+
+
 def select_files(train: Path, shapes: list[str] | None, per_shape: int | None) -> dict[str, list[Path]]:
     by_shape: dict[str, list[Path]] = {}
     for path in sorted(train.glob("*.h5")):
@@ -245,7 +263,8 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
     k = min(MAX_FOLDS, len(trials))
     folds = [[i for i in range(len(trials)) if i % k == f] for f in range(k)]
     rows = [{"trial": t.name, "fold": i % k} for i, t in enumerate(trials)]
-    outcomes = executor.run([Job(trial_rollout(t, (), odb), sim_options(t)) for t in trials])
+    outcomes = executor.run([Job(trial_rollout(t, (), odb), replace(sim_options(t), robot_force=True, joint_track=True))
+                             for t in trials])  # with the force and the rod as simulated: the cone's reading
     for row, trial, outcome, p in zip(rows, trials, outcomes, pushed):
         row["drake"] = None if outcome.failed else scores(residuals_of(trial, outcome.result, odb))
         if outcome.failed:
@@ -267,10 +286,20 @@ def run_shape(trials, odb, executor, drake_fit: bool, iterations: int,
                         sim_options(trials[i])) for i in held]
         for i, outcome in zip(held, executor.run(gap_jobs)):
             rows[i]["drake_gap"] = None if outcome.failed else scores(residuals_of(trials[i], outcome.result, odb))
+        entry_cone, factor = rod_cone([trials[i] for i in train], [outcomes[i] for i in train], odb, pushed[0].name)
+        rod = lambda i: (Setting("robot_friction", pushed[i].name, factor),) if factor != 1.0 else ()  # noqa: E731
+        cone_jobs = [Job(trial_rollout(trials[i], rod(i), odb), sim_options(trials[i])) for i in held]
+        both_jobs = [Job(replace(trial_rollout(trials[i], rod(i), odb),
+                                 telemetry=trials[i].telemetry.with_offsets(offset)), sim_options(trials[i]))
+                     for i in held]
+        outcomes_held = executor.run(cone_jobs + both_jobs)
+        for k, i in enumerate(held):
+            for column, outcome in (("drake_cone", outcomes_held[k]), ("drake_read", outcomes_held[len(held) + k])):
+                rows[i][column] = None if outcome.failed else scores(residuals_of(trials[i], outcome.result, odb))
         fit = fit_pusher_friction([trials[i] for i in train], [pushed[i] for i in train], mu_p0)
         forces = [rows[i]["mu_s_from_force"] for i in train if rows[i]["mu_s_from_force"] is not None]
         entry = {"fold": f, "held_out": [trials[i].name for i in held], "ls_mu_p": fit.mu_p,
-                 "gap_offset_mm": {j: round(1e3 * v, 3) for j, v in offset.items()},
+                 "gap_offset_mm": {j: round(1e3 * v, 3) for j, v in offset.items()}, "cone": entry_cone,
                  "ls_mu_s_from_force": float(np.median(forces)) if forces else None,
                  "ls_train_e_mm": [1e3 * fit.before.e, 1e3 * fit.after.e], "ls_evaluations": fit.evaluations}
         for i in held:
@@ -355,6 +384,11 @@ def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
         for column in ("drake_ps", "drake_an"):
             if any(column in f for f in fit["folds"]):
                 line += f"; {column} " + ", ".join(f[column]["chosen"] for f in fit["folds"] if column in f)
+        cones = [f["cone"] for f in fit["folds"] if f.get("cone")]
+        if cones:
+            read = ", ".join(f"{c['recorded']['coefficient']:.3f}" for c in cones)
+            line += f"; rod friction read from the force {read} (replays " + ", ".join(
+                f"{c['replayed']['coefficient']:.3f}" for c in cones) + ")"
         verdicts = [f["diagnosis"]["verdict"] for f in fit["folds"] if "diagnosis" in f]
         if verdicts:
             top, count = Counter(verdicts).most_common(1)[0]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -36,6 +36,7 @@ from ..rollout.compare import PoseError
 from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
 from .effects.base import Effect, pname
+from .cone import RodReading, contact_friction, rod_reading
 from .crossval import Prediction, Stability, predict_left_out, prediction
 from .effects.object_scale import outline_radius
 from .loader import NEGLIGIBLE, NOISE_SIGMAS, ContactFit, LoaderEvidence, read_adjustments
@@ -171,6 +172,7 @@ class Identification:
     frame: FrameFit | None = None  # the recorded frame the pushing samples imply (`outline`), before any simulation
     work: WorkFit | None = None  # the friction and slope the work the robot did implies (`work`), before any simulation
     stability: Stability | None = None  # the verdict with each recording left out of the cross-validation
+    rod: RodReading | None = None  # the rod's friction the force's direction reads, against the friction model's
 
     @property
     def partial(self) -> bool:
@@ -300,6 +302,10 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     fits = {("friction", None): base_fit}  # the fit of each model, by (effect, target): its Jacobian for the winner
     say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}"
         + (" (cut short by the time limit)" if base_fit.stopped else "") + f" [{runner.simulations} simulations]")
+    rod = _rod_reading(runner, train, friction_scored.model, focus[0])
+    if rod is not None:
+        notes.append(rod.sentence())
+        say(notes[-1])
     advance()
 
     # 3. screen candidates (each together with the friction coefficients), likely ones first
@@ -426,7 +432,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
                           held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame,
-                          work, stability)
+                          work, stability, rod)
 
 
 def _fit_key(s: Scored) -> tuple[str, str | None]:
@@ -437,8 +443,6 @@ def _with_uncertainty(s: Scored, result: FitResult, tau: float) -> Scored:
     """`s` with the uncertainty of `result`'s Jacobian (differenced at the optimum for every cross-validated
     model; the secant estimate a fit leaves there otherwise), inflated by the residual's correlation time: tau
     correlated samples carry one sample's information (as in `bic`)."""
-    from dataclasses import replace
-
     std = result.std(inflate=tau)
     return replace(s, std={k: std.get(k, v) for k, v in s.std.items()}, model_std={**s.model_std, **std})
 
@@ -463,6 +467,26 @@ def _friction_parameters(world, odb, target: str) -> list[Parameter]:
     else:
         kinds = ["sliding_friction", "robot_friction" if link_friction(world, odb) else "friction"]
     return [Parameter.of(kind, target, world, odb, effect="friction") for kind in kinds]
+
+
+def _rod_reading(runner: Runner, train: Sequence[int], model: Model, obj: str) -> RodReading | None:
+    """The rod's friction that the force's direction reads while the rod slid (`cone`), on the training recordings
+    and on replays of them by the friction model with the database's rod pair (the simulated rod and force: one
+    replay each, which the rollout cache does not keep), against the fitted rod factor. Not at the fitted pair: a
+    fit that roughened the rod makes it stick in the replays where the real one slid (real ellip3: 1.45 x, no
+    replay slid). Evidence, never a fit: what it reads in a simulator whose contacts creep (MuJoCo's ellipses: a
+    fifth of the coefficient) is that simulator's, not Coulomb's."""
+    prepared = [runner.prepared[i] for i in train]
+    fitted = next((s.value for s in model if s.kind == "robot_friction" and s.target == obj), None)
+    if fitted is None or contact_friction([p.trial for p in prepared], runner.odb, obj) is None:
+        return None
+    at_one = tuple(replace(s, value=1.0) if s.kind == "robot_friction" and s.target == obj else s for s in model)
+    jobs = [runner.job(at_one, i) for i in train]
+    jobs = [replace(j, options=replace(j.options, robot_force=True, joint_track=True)) for j in jobs]
+    outcomes = runner.executor.run(jobs)
+    runner.simulations += len(jobs)
+    return rod_reading([p.trial for p in prepared], [None if o.failed else o.result for o in outcomes], runner.odb,
+                       obj, 1.0, fitted)
 
 
 def _work_friction(work: WorkFit | None, friction: Sequence[Parameter], fitted: dict[str, float]
@@ -505,8 +529,6 @@ def _space(friction: Sequence[Parameter], effect, target: str, world, odb,
     """The friction coefficients and an effect's parameters, searched together; an effect parameter that a
     direct measurement gives (`_measured`: name -> (value, 1 sigma)) is held at it, one the `region` names
     (`Effect.fit_region`) kept within its bounds there too."""
-    from dataclasses import replace
-
     measured, region = measured or {}, region or {}
 
     def bounded(p: Parameter) -> Parameter:

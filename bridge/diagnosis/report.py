@@ -85,6 +85,8 @@ def loader_json(ident: Identification) -> dict[str, Any]:
                                     "sentence": ident.frame.sentence() if ident.frame.evident else None}
     if ident.work is not None:
         out["evidence"]["work"] = {**ident.work.to_json(), "sentence": ident.work.sentence()}
+    if ident.rod is not None:
+        out["evidence"]["rod_friction"] = ident.rod.to_json()
     return out
 
 
@@ -210,7 +212,7 @@ def loader_markdown(data: Mapping[str, Any]) -> list[str]:
                 continue
             rows.append(f"| {entry['recording']} | {a['kind']} | {what} |")
     evidence = (data.get("evidence") or {}).get("start_inside") or {}
-    read = [((data.get("evidence") or {}).get(key) or {}).get("sentence") for key in ("frame", "work")]
+    read = [((data.get("evidence") or {}).get(key) or {}).get("sentence") for key in ("frame", "work", "rod_friction")]
     sentences = ([evidence["sentence"]] if evidence.get("sentence") else []) + \
         list(((data.get("evidence") or {}).get("contact") or {}).get("sentences") or ()) + [s for s in read if s]
     if not rows and not sentences:

@@ -474,18 +474,31 @@ def touching(force_magnitude: np.ndarray) -> np.ndarray:
 
 def signed_distance(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     """Distance of each point to the closed polygon's boundary, negative inside (even-odd rule)."""
-    a = polygon
-    b = np.roll(polygon, -1, axis=0)
+    return closest_on_outline(points, polygon)[0]
+
+
+def closest_on_outline(points: np.ndarray, outline: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For points (B, 2): signed distance to the closed outline (negative inside, even-odd rule), the nearest
+    outline point (B, 2) and the outward unit normal there (B, 2: towards the point; the edge's normal when on it)."""
+    a, b = outline, np.roll(outline, -1, axis=0)
     ab = b - a
     ap = points[:, None, :] - a[None, :, :]
     u = np.clip(np.sum(ap * ab, axis=-1) / np.maximum(np.sum(ab * ab, axis=-1), 1e-300), 0.0, 1.0)
-    dist = np.linalg.norm(ap - u[..., None] * ab, axis=-1).min(axis=1)
+    foot = a[None] + u[..., None] * ab[None]
+    gap = np.linalg.norm(points[:, None, :] - foot, axis=-1)
+    k = np.argmin(gap, axis=1)
+    rows = np.arange(len(points))
+    nearest, dist = foot[rows, k], gap[rows, k]
     x, y = points[:, 0:1], points[:, 1:2]
     crosses = (a[:, 1] > y) != (b[:, 1] > y)
     with np.errstate(divide="ignore", invalid="ignore"):
         x_cross = a[:, 0] + (y - a[:, 1]) * ab[:, 0] / ab[:, 1]
     inside = (np.sum(crosses & (x < x_cross), axis=1) % 2) == 1
-    return np.where(inside, -dist, dist)
+    sign = np.where(inside, -1.0, 1.0)
+    edge_normal = np.column_stack([ab[k, 1], -ab[k, 0]]) / np.linalg.norm(ab[k], axis=1, keepdims=True)
+    away = (points - nearest) * sign[:, None]
+    normal = np.where(dist[:, None] > 1e-9, away / np.maximum(dist, 1e-300)[:, None], edge_normal)
+    return sign * dist, nearest, normal
 
 
 def _wrap(angle: float) -> float:

@@ -34,7 +34,7 @@ from scipy.optimize import least_squares
 
 from ..errors import LimitSurfaceError, RecordingError
 from ..odb import ObjectDatabase
-from ..recording.mitpush import PUSHER_RADIUS
+from ..recording.mitpush import PUSHER_RADIUS, closest_on_outline
 from ..sim.prisms import outline_of
 from ..sim.prisms import centroid, signed_area
 from ..sim.simulate import ReplayResult
@@ -160,30 +160,6 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
 
 
-def _closest_on_outline(points: np.ndarray, outline: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For points (B, 2): signed distance to the closed outline (negative inside), the nearest outline point
-    (B, 2) and the outward unit normal there (B, 2: towards the point; the edge's normal when on it)."""
-    a, b = outline, np.roll(outline, -1, axis=0)
-    ab = b - a
-    ap = points[:, None, :] - a[None, :, :]
-    u = np.clip(np.sum(ap * ab, axis=-1) / np.maximum(np.sum(ab * ab, axis=-1), 1e-300), 0.0, 1.0)
-    foot = a[None] + u[..., None] * ab[None]
-    gap = np.linalg.norm(points[:, None, :] - foot, axis=-1)
-    k = np.argmin(gap, axis=1)
-    rows = np.arange(len(points))
-    nearest, dist = foot[rows, k], gap[rows, k]
-    x, y = points[:, 0:1], points[:, 1:2]
-    crosses = (a[:, 1] > y) != (b[:, 1] > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_cross = a[:, 0] + (y - a[:, 1]) * ab[:, 0] / ab[:, 1]
-    inside = (np.sum(crosses & (x < x_cross), axis=1) % 2) == 1
-    sign = np.where(inside, -1.0, 1.0)
-    edge_normal = np.column_stack([ab[k, 1], -ab[k, 0]]) / np.linalg.norm(ab[k], axis=1, keepdims=True)
-    away = (points - nearest) * sign[:, None]
-    normal = np.where(dist[:, None] > 1e-9, away / np.maximum(dist, 1e-300)[:, None], edge_normal)
-    return sign * dist, nearest, normal
-
-
 # --- a whole push ---------------------------------------------------------------------------------------------
 def push_object(surface: LimitSurface, times: np.ndarray, tip: np.ndarray, start: Sequence[float], *,
                 mu_p: float | Sequence[float], pusher_radius: float = PUSHER_RADIUS,
@@ -220,7 +196,7 @@ def push_object(surface: LimitSurface, times: np.ndarray, tip: np.ndarray, start
         cos, sin = np.cos(pose[:, 2]), np.sin(pose[:, 2])
         rel = tip[k + 1] - pose[:, :2]
         local = np.column_stack([cos * rel[:, 0] + sin * rel[:, 1], -sin * rel[:, 0] + cos * rel[:, 1]])
-        distance, nearest, outward = _closest_on_outline(local, surface.outline)
+        distance, nearest, outward = closest_on_outline(local, surface.outline)
         touching = distance < pusher_radius
         if touching.any():
             step = tip[k + 1] - tip[k]
