@@ -86,7 +86,10 @@ def run_case(root: Path, shape: str, effect: str, seed: int, pushes: int, hold_o
             "held_out_e_before": e.get("held_out_before", {}).get("e"),
             "held_out_e_after": e.get("held_out_after", {}).get("e"),
             "nominal_rms_sigma": e["before"].get("rms_sigma"), "seconds": round(seconds, 1),
-            "simulations": data["simulations"], "stability": stability_of(data), "notes": data.get("notes", [])[-3:]}
+            "simulations": data["simulations"], "stability": stability_of(data),
+            "rod_friction": {k: v for k, v in ((data.get("evidence") or {}).get("rod_friction") or {}).items()
+                             if k in ("fitted", "factor", "factor_sd", "contradicts")} or None,
+            "notes": data.get("notes", [])[-3:]}
 
 
 def stability_of(data: dict) -> dict | None:
