@@ -61,7 +61,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from bridge.fit.evaluate import residuals_of, sim_options  # noqa: E402
-from bridge.diagnosis.cone import contact_friction, simulated_contact_friction  # noqa: E402
+from bridge.diagnosis.cone import rod_reading  # noqa: E402
 from bridge.diagnosis.loader import read_adjustments  # noqa: E402
 from bridge.diagnosis.runs import prepare  # noqa: E402
 from bridge.fit.fit import fit_parameters  # noqa: E402
@@ -190,13 +190,9 @@ def diagnose_fold(trials: list, train: list[int], odb, workers: int) -> tuple[tu
 
 def rod_cone(trials: list, outcomes: list, odb, obj: str) -> tuple[dict | None, float]:
     """The rod's friction the force's direction reads on the recordings and on their nominal replays, and the
-    factor on the model's rod pair it asks for (recorded / replayed; 1 where either cannot be read)."""
-    recorded = contact_friction(trials, odb, obj)
-    replayed = simulated_contact_friction(trials, [None if o.failed else o.result for o in outcomes], odb, obj)
-    if recorded is None or replayed is None:
-        return None, 1.0
-    factor = recorded.coefficient / replayed.coefficient
-    return {"recorded": recorded.to_json(), "replayed": replayed.to_json(), "factor": round(factor, 4)}, factor
+    factor on the model's rod pair it asks for (1 where either cannot be read)."""
+    reading = rod_reading(trials, [None if o.failed else o.result for o in outcomes], odb, obj, 1.0, 1.0)
+    return (None, 1.0) if reading is None else (reading.to_json(), reading.factor)
 
 
 def select_files(train: Path, shapes: list[str] | None, per_shape: int | None) -> dict[str, list[Path]]:

@@ -178,7 +178,7 @@ def simulated_contact_friction(trials: Sequence, results: Sequence, odb, obj: st
     `joint_track`; None entries are skipped): the simulated rod, object and force. Read under the model's own
     coefficient, it gives the ratio the model's contact turns a pair coefficient into (a rod pressed into a
     compliant side meets it over an arc, and the arc's normals partly cancel where the friction adds: Drake's
-    replays read 11-36 % above their pair, more at small coefficients), so the recordings' reading against the
+    replays read 9-36 % above their pair, more at small coefficients), so the recordings' reading against the
     replays' is the factor on the model's pair (`robot_friction`) they ask for (`calibrated_factor`), whatever the
     reading's own biases."""
     from .outline import PLANAR_JOINTS

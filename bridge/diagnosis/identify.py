@@ -475,7 +475,7 @@ def _rod_reading(runner: Runner, train: Sequence[int], model: Model, obj: str) -
     replay each, which the rollout cache does not keep), against the fitted rod factor. Not at the fitted pair: a
     fit that roughened the rod makes it stick in the replays where the real one slid (real ellip3: 1.45 x, no
     replay slid). Evidence, never a fit: what it reads in a simulator whose contacts creep (MuJoCo's ellipses: a
-    fifth of the coefficient) is that simulator's, not Coulomb's."""
+    third of the coefficient, median) is that simulator's, not Coulomb's."""
     prepared = [runner.prepared[i] for i in train]
     fitted = next((s.value for s in model if s.kind == "robot_friction" and s.target == obj), None)
     if fitted is None or contact_friction([p.trial for p in prepared], runner.odb, obj) is None:

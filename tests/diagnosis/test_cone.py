@@ -113,19 +113,15 @@ def test_one_steel_rod_reads_one_coefficient_on_three_real_steel_shapes(odb, mit
 
 
 @pytest.mark.slow
-def test_the_diagnosis_says_when_its_friction_fit_contradicts_the_force(odb, tmp_path):
+def test_the_diagnosis_says_when_its_friction_fit_contradicts_the_force(odb, tmp_path, evidence_report):
     """`identify._rod_reading`, replayed at the database's rod pair whatever the fit's: a fitted rod factor at the
     world's agrees with the force, one at 0.6 x it is contradicted, and both read the world's factor; the reading
     reaches diagnosis.json (schema-valid) and the report."""
-    from bridge.diagnosis.identify import Identification, Scored, _rod_reading
-    from bridge.diagnosis.loader import read_adjustments
-    from bridge.diagnosis.locate import Localisation
-    from bridge.diagnosis.report import diagnosis_json, report_markdown, validate
+    from bridge.diagnosis.identify import _rod_reading
     from bridge.diagnosis.runs import Runner, prepare
     from bridge.params.model import Setting
     from bridge.prove.scenes import Case
     from bridge.rollout import make_executor
-    from bridge.rollout.compare import PoseError
 
     trials, obj = _generated(odb, tmp_path, Case("planar", "none", "medium", 1))
     prepared = [prepare(t, odb) for t in trials]
@@ -137,13 +133,7 @@ def test_the_diagnosis_says_when_its_friction_fit_contradicts_the_force(odb, tmp
         assert runner.simulations == 2 * len(train)
     assert not right.contradicts and wrong.contradicts
     assert wrong.factor == right.factor == pytest.approx(1.0, abs=0.05)
-    error = PoseError(0.001, 0.01, 0.002, 100)
-    none = Scored("none", "world", {}, {}, (), 0, 100.0, 100, error=error, held_out_chi2=100.0, held_out_n=100,
-                  held_out_error=error)
-    ident = Identification("none", (none,), Localisation(()), tuple(p.name for p in prepared), (), 1.0, (),
-                           (wrong.sentence(),), 0, 0.0, loader=read_adjustments(prepared, held_out=[]), rod=wrong)
-    data = diagnosis_json(ident)
-    validate(data)
+    data, report = evidence_report(prepared, wrong.sentence(), rod=wrong)
     rod = data["evidence"]["rod_friction"]
     assert rod["contradicts"] and rod["fitted"] == 0.6 and rod["replayed_factor"] == 1.0
-    assert "contradicts the force" in rod["sentence"] and rod["sentence"] in report_markdown(ident, data, [])
+    assert "contradicts the force" in rod["sentence"] and rod["sentence"] in report

@@ -97,25 +97,13 @@ def test_the_tilt_search_starts_from_the_works_slope_within_its_bounds(odb, plan
 
 
 @pytest.mark.slow
-def test_diagnosis_json_and_report_carry_the_work(odb, tmp_path):
-    from bridge.diagnosis.identify import Identification, Scored
-    from bridge.diagnosis.loader import read_adjustments
-    from bridge.diagnosis.locate import Localisation
-    from bridge.diagnosis.report import diagnosis_json, report_markdown, validate
+def test_diagnosis_json_and_report_carry_the_work(odb, tmp_path, evidence_report):
     from bridge.diagnosis.runs import prepare
-    from bridge.rollout.compare import PoseError
 
     trials, _ = _trials(odb, tmp_path, "surface_tilt", "large", 1)
     fit = work_fit(trials, odb, trials[0].observations.tracks[0].object)
-    prepared = [prepare(t, odb) for t in trials]
-    error = PoseError(0.001, 0.01, 0.002, 100)
-    none = Scored("none", "world", {}, {}, (), 0, 100.0, 100, error=error, held_out_chi2=100.0, held_out_n=100,
-                  held_out_error=error)
-    ident = Identification("none", (none,), Localisation(()), tuple(p.name for p in prepared), (), 1.0, (),
-                           (fit.sentence(),), 0, 0.0, loader=read_adjustments(prepared, held_out=[]), work=fit)
-    data = diagnosis_json(ident)
-    validate(data)
+    data, report = evidence_report([prepare(t, odb) for t in trials], fit.sentence(), work=fit)
     work = data["evidence"]["work"]
     assert work["evident"] and work["coefficient"] == pytest.approx(fit.coefficient, rel=1e-3)
     assert "sloping" in work["sentence"] and "a seed for `surface_tilt`" in work["sentence"]
-    assert work["sentence"] in report_markdown(ident, data, [])
+    assert work["sentence"] in report
