@@ -70,6 +70,8 @@ def run_shape(shape: str, files: list[Path], odb, workers: int, time_step: float
             "stability": (data.get("cross_validation") or {}).get("stability"),
             "rod_friction": {k: v for k, v in ((data.get("evidence") or {}).get("rod_friction") or {}).items()
                              if k in ("fitted", "factor", "factor_sd", "contradicts")} or None,
+            "support_pressure": {k: v for k, v in ((data.get("evidence") or {}).get("support_pressure") or {}).items()
+                                 if k in ("scale", "scale_sd", "agree", "fitted", "contradicts")} or None,
             "verdict": data["verdict"], "e_before": data["error"]["before"]["e"], "e_after": data["error"]["after"]["e"],
             "held_out_e_before": data["error"].get("held_out_before", {}).get("e"),
             "held_out_e_after": data["error"].get("held_out_after", {}).get("e")}

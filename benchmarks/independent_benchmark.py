@@ -89,6 +89,8 @@ def run_case(root: Path, shape: str, effect: str, seed: int, pushes: int, hold_o
             "simulations": data["simulations"], "stability": stability_of(data),
             "rod_friction": {k: v for k, v in ((data.get("evidence") or {}).get("rod_friction") or {}).items()
                              if k in ("fitted", "factor", "factor_sd", "contradicts")} or None,
+            "support_pressure": {k: v for k, v in ((data.get("evidence") or {}).get("support_pressure") or {}).items()
+                                 if k in ("scale", "scale_sd", "agree", "fitted", "contradicts")} or None,
             "notes": data.get("notes", [])[-3:]}
 
 

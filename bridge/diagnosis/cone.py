@@ -30,11 +30,10 @@ from typing import Any, Sequence
 
 import numpy as np
 from scipy.signal import savgol_coeffs, savgol_filter
-from scipy.spatial.transform import Rotation
 
 from ..recording.mitpush import closest_on_outline, touching
 from .loader import NOISE_SIGMAS
-from .outline import rod_xy
+from .outline import recorded_push, replayed_push
 
 RATE = 100.0  # Hz: the tracks, the rod and the force are resampled here before differencing (`work.RATE`)
 SMOOTHING = 0.07  # s: the Savitzky-Golay window of the rod's velocity over the object (`work.SMOOTHING`)
@@ -156,20 +155,8 @@ def contact_friction(trials: Sequence, odb, obj: str) -> ContactFriction | None:
     outline = _outline(trials, odb, obj)
     if outline is None:
         return None
-    pushes = []
-    for trial in trials:
-        track = next((t for t in trial.observations.tracks if t.object == obj), None)
-        if trial.force is None or track is None or len(track.times) < 8:
-            continue
-        times = np.asarray(track.times, dtype=float)
-        grid = np.arange(times[0], times[-1], 1.0 / RATE)  # the rod and the force at their own rate
-        rod = rod_xy(trial, obj, grid)
-        if rod is None:
-            continue
-        force = -np.column_stack([np.interp(grid, trial.force.times, trial.force.force[:, k]) for k in (0, 1)])
-        xy = np.column_stack([np.interp(grid, times, [p.xyz[k] for p in track.poses]) for k in (0, 1)])
-        yaw = np.interp(grid, times, np.unwrap([p.yaw() for p in track.poses]))
-        pushes.append(push_groups(grid, xy, yaw, rod, force, outline))
+    pushes = [push_groups(p.times, p.xy, p.yaw, p.rod, p.force, outline)
+              for p in (recorded_push(trial, obj, RATE) for trial in trials) if p is not None]
     return _solve(obj, pushes)
 
 
@@ -181,22 +168,11 @@ def simulated_contact_friction(trials: Sequence, results: Sequence, odb, obj: st
     replays read 9-36 % above their pair, more at small coefficients), so the recordings' reading against the
     replays' is the factor on the model's pair (`robot_friction`) they ask for (`calibrated_factor`), whatever the
     reading's own biases."""
-    from .outline import PLANAR_JOINTS
-
     outline = _outline(trials, odb, obj)
     if outline is None:
         return None
-    pushes = []
-    for trial, result in zip(trials, results):
-        if result is None or result.robot_force is None or result.joint_track is None or obj not in result.tracks:
-            continue
-        if not set(PLANAR_JOINTS) <= set(result.joint_names) or trial.world.robot is None:
-            continue
-        columns = [result.joint_names.index(j) for j in PLANAR_JOINTS]
-        rod = result.joint_track[:, columns] + np.asarray(trial.world.robot.base_pose.xyz[:2])
-        track = result.tracks[obj]
-        yaw = Rotation.from_quat(track[:, [4, 5, 6, 3]]).as_euler("zyx")[:, 0]  # tracks hold w, x, y, z
-        pushes.append(push_groups(result.times, track[:, :2], yaw, rod, -result.robot_force[:, :2], outline))
+    pushes = [push_groups(p.times, p.xy, p.yaw, p.rod, p.force, outline)
+              for p in (replayed_push(t, r, obj, RATE) for t, r in zip(trials, results)) if p is not None]
     return _solve(obj, pushes)
 
 

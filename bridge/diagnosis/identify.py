@@ -42,6 +42,7 @@ from .effects.object_scale import outline_radius
 from .loader import NEGLIGIBLE, NOISE_SIGMAS, ContactFit, LoaderEvidence, read_adjustments
 from .locate import Localisation, locate
 from .outline import FrameFit, frame_evidence
+from .pressure import CALIBRATE, CENTRES, SupportReading, recorded_torsions, support_reading
 from .runs import Run, Runner, chi2_of
 from .search import Evaluator, FitResult, bic, correlation_time, differenced, fit, pose_error_of, screen
 from .work import WorkFit, work_fit
@@ -173,6 +174,7 @@ class Identification:
     work: WorkFit | None = None  # the friction and slope the work the robot did implies (`work`), before any simulation
     stability: Stability | None = None  # the verdict with each recording left out of the cross-validation
     rod: RodReading | None = None  # the rod's friction the force's direction reads, against the friction model's
+    support: SupportReading | None = None  # the footprint scale the force and the twist read, against the verdict's
 
     @property
     def partial(self) -> bool:
@@ -302,10 +304,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     fits = {("friction", None): base_fit}  # the fit of each model, by (effect, target): its Jacobian for the winner
     say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}"
         + (" (cut short by the time limit)" if base_fit.stopped else "") + f" [{runner.simulations} simulations]")
-    rod = _rod_reading(runner, train, friction_scored.model, focus[0])
-    if rod is not None:
-        notes.append(rod.sentence())
-        say(notes[-1])
+    rod, support = _force_readings(runner, train, friction_scored.model, focus[0])
+    for reading in (rod, support):
+        if reading is not None:
+            notes.append(reading.sentence())
+            say(notes[-1])
     advance()
 
     # 3. screen candidates (each together with the friction coefficients), likely ones first
@@ -432,7 +435,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
                           held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame,
-                          work, stability, rod)
+                          work, stability, rod, _against_verdict(support, scored, verdict, focus[0]))
 
 
 def _fit_key(s: Scored) -> tuple[str, str | None]:
@@ -469,24 +472,50 @@ def _friction_parameters(world, odb, target: str) -> list[Parameter]:
     return [Parameter.of(kind, target, world, odb, effect="friction") for kind in kinds]
 
 
-def _rod_reading(runner: Runner, train: Sequence[int], model: Model, obj: str) -> RodReading | None:
-    """The rod's friction that the force's direction reads while the rod slid (`cone`), on the training recordings
-    and on replays of them by the friction model with the database's rod pair (the simulated rod and force: one
-    replay each, which the rollout cache does not keep), against the fitted rod factor. Not at the fitted pair: a
-    fit that roughened the rod makes it stick in the replays where the real one slid (real ellip3: 1.45 x, no
-    replay slid). Evidence, never a fit: what it reads in a simulator whose contacts creep (MuJoCo's ellipses: a
-    third of the coefficient, median) is that simulator's, not Coulomb's."""
-    prepared = [runner.prepared[i] for i in train]
+def _force_readings(runner: Runner, train: Sequence[int], model: Model, obj: str
+                    ) -> tuple[RodReading | None, SupportReading | None]:
+    """What the force reads against replays of the training recordings by the friction model with the database's
+    rod pair (the simulated rod and force: one replay each, which the rollout cache does not keep): the rod's
+    friction while it slid (`cone`), against the fitted rod factor, and the footprint scale the object's torsion
+    asks for (`pressure`), replayed once more at that scale where the pushes agree on one that is not uniform (the
+    secant calibrates it). Not at the fitted pair: a fit that roughened the rod makes it stick in the replays where
+    the real one slid (real ellip3: 1.45 x, no replay slid). Evidence, never a fit: what they read in a simulator
+    whose contacts creep (MuJoCo's ellipses: a third of the rod's coefficient, median) is that simulator's, not
+    Coulomb's."""
+    trials = [runner.prepared[i].trial for i in train]
     fitted = next((s.value for s in model if s.kind == "robot_friction" and s.target == obj), None)
-    if fitted is None or contact_friction([p.trial for p in prepared], runner.odb, obj) is None:
-        return None
+    read_rod = fitted is not None and contact_friction(trials, runner.odb, obj) is not None
+    if not read_rod and len(recorded_torsions(trials, runner.odb, obj)) < 2:
+        return None, None
     at_one = tuple(replace(s, value=1.0) if s.kind == "robot_friction" and s.target == obj else s for s in model)
-    jobs = [runner.job(at_one, i) for i in train]
-    jobs = [replace(j, options=replace(j.options, robot_force=True, joint_track=True)) for j in jobs]
-    outcomes = runner.executor.run(jobs)
-    runner.simulations += len(jobs)
-    return rod_reading([p.trial for p in prepared], [None if o.failed else o.result for o in outcomes], runner.odb,
-                       obj, 1.0, fitted)
+
+    def replays(m: Model) -> list:
+        jobs = [runner.job(m, i) for i in train]
+        jobs = [replace(j, options=replace(j.options, robot_force=True, joint_track=True)) for j in jobs]
+        runner.simulations += len(jobs)
+        return [None if o.failed else o.result for o in runner.executor.run(jobs)]
+
+    results = replays(at_one)
+    rod = rod_reading(trials, results, runner.odb, obj, 1.0, fitted) if read_rod else None
+    support = support_reading(trials, [(1.0, results)], runner.odb, obj)
+    if support is not None and support.agree and abs(math.log(support.scale)) > math.log(1.0 + CALIBRATE):
+        bounds = Parameter.of("support_scale", obj, runner.prepared[0].trial.world, runner.odb).bounds
+        scale = float(np.clip(support.scale, *bounds))
+        again = replays(at_one + (Setting("support_scale", obj, scale),))
+        support = support_reading(trials, [(1.0, results), (scale, again)], runner.odb, obj) or support
+    return rod, support
+
+
+def _against_verdict(support: SupportReading | None, scored: Sequence[Scored], verdict: str, obj: str
+                     ) -> SupportReading | None:
+    """The reading against the verdict's footprint scale (None: the database's uniform footprint); not judged where
+    the verdict moves the centre of mass or of pressure (`SupportReading.moved`)."""
+    if support is None:
+        return None
+    model = next(s.model for s in scored if s.effect == verdict)
+    fitted = next((s.value for s in model if s.kind == "support_scale" and s.target == obj), None)
+    moved = any(s.kind in CENTRES and s.target == obj and float(s.value) != 0.0 for s in model)
+    return replace(support, fitted=None if fitted is None else float(fitted), moved=moved)
 
 
 def _work_friction(work: WorkFit | None, friction: Sequence[Parameter], fitted: dict[str, float]

@@ -112,6 +112,54 @@ def rod_xy(trial, obj: str, times: np.ndarray) -> np.ndarray | None:
     return tip
 
 
+@dataclass(frozen=True)
+class Push:
+    """One push on an even time grid: the object's track (world x-y, unwrapped yaw), the rod's centre and the force
+    on the object (world x-y, the negated force the robot's sensor reads), as the force readings take them."""
+
+    times: np.ndarray
+    xy: np.ndarray
+    yaw: np.ndarray
+    rod: np.ndarray
+    force: np.ndarray
+
+
+def recorded_push(trial, obj: str, rate: float) -> Push | None:
+    """`obj`'s push in a recording at `rate` (the rod from the telemetry at the grid's times, the track and the
+    force interpolated); None without a force track, a planar pusher or a track of `obj`."""
+    track = next((t for t in trial.observations.tracks if t.object == obj), None)
+    if trial.force is None or track is None or len(track.times) < 8:
+        return None
+    times = np.asarray(track.times, dtype=float)
+    grid = np.arange(times[0], times[-1], 1.0 / rate)
+    rod = rod_xy(trial, obj, grid)
+    if rod is None:
+        return None
+    force = -np.column_stack([np.interp(grid, trial.force.times, trial.force.force[:, k]) for k in (0, 1)])
+    xy = np.column_stack([np.interp(grid, times, [p.xyz[k] for p in track.poses]) for k in (0, 1)])
+    return Push(grid, xy, np.interp(grid, times, np.unwrap([p.yaw() for p in track.poses])), rod, force)
+
+
+def replayed_push(trial, result, obj: str, rate: float) -> Push | None:
+    """`obj`'s push in a replay of `trial` (a `sim.simulate.ReplayResult` run with `robot_force` and `joint_track`)
+    at `rate`: the simulated rod, object and force; None where the replay lacks them."""
+    from scipy.spatial.transform import Rotation
+
+    if result is None or result.robot_force is None or result.joint_track is None or obj not in result.tracks:
+        return None
+    if not set(PLANAR_JOINTS) <= set(result.joint_names) or trial.world.robot is None or len(result.times) < 8:
+        return None
+    times = np.asarray(result.times, dtype=float)
+    grid = np.arange(times[0], times[-1], 1.0 / rate)
+    at = lambda a: np.column_stack([np.interp(grid, times, a[:, k]) for k in range(a.shape[1])])  # noqa: E731
+    columns = [result.joint_names.index(j) for j in PLANAR_JOINTS]
+    track = result.tracks[obj]
+    yaw = np.unwrap(Rotation.from_quat(track[:, [4, 5, 6, 3]]).as_euler("zyx")[:, 0])  # tracks hold w, x, y, z
+    return Push(grid, at(track[:, :2]), np.interp(grid, times, yaw),
+                at(result.joint_track[:, columns]) + np.asarray(trial.world.robot.base_pose.xyz[:2]),
+                at(-np.asarray(result.robot_force)[:, :2]))
+
+
 def pushing_samples(trial, obj: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """(rod xy (n, 2), recorded object xy (n, 2), recorded yaw (n,)) at the observed samples where `obj` moves,
     the rod as `rod_xy` gives it; None without a planar pusher, an observed track of `obj` or enough samples."""

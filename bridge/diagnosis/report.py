@@ -87,6 +87,8 @@ def loader_json(ident: Identification) -> dict[str, Any]:
         out["evidence"]["work"] = {**ident.work.to_json(), "sentence": ident.work.sentence()}
     if ident.rod is not None:
         out["evidence"]["rod_friction"] = ident.rod.to_json()
+    if ident.support is not None:
+        out["evidence"]["support_pressure"] = ident.support.to_json()
     return out
 
 
@@ -212,7 +214,8 @@ def loader_markdown(data: Mapping[str, Any]) -> list[str]:
                 continue
             rows.append(f"| {entry['recording']} | {a['kind']} | {what} |")
     evidence = (data.get("evidence") or {}).get("start_inside") or {}
-    read = [((data.get("evidence") or {}).get(key) or {}).get("sentence") for key in ("frame", "work", "rod_friction")]
+    read = [((data.get("evidence") or {}).get(key) or {}).get("sentence")
+            for key in ("frame", "work", "rod_friction", "support_pressure")]
     sentences = ([evidence["sentence"]] if evidence.get("sentence") else []) + \
         list(((data.get("evidence") or {}).get("contact") or {}).get("sentences") or ()) + [s for s in read if s]
     if not rows and not sentences:

@@ -114,10 +114,10 @@ def test_one_steel_rod_reads_one_coefficient_on_three_real_steel_shapes(odb, mit
 
 @pytest.mark.slow
 def test_the_diagnosis_says_when_its_friction_fit_contradicts_the_force(odb, tmp_path, evidence_report):
-    """`identify._rod_reading`, replayed at the database's rod pair whatever the fit's: a fitted rod factor at the
+    """`identify._force_readings`, replayed at the database's rod pair whatever the fit's: a fitted rod factor at the
     world's agrees with the force, one at 0.6 x it is contradicted, and both read the world's factor; the reading
     reaches diagnosis.json (schema-valid) and the report."""
-    from bridge.diagnosis.identify import _rod_reading
+    from bridge.diagnosis.identify import _force_readings
     from bridge.diagnosis.runs import Runner, prepare
     from bridge.params.model import Setting
     from bridge.prove.scenes import Case
@@ -128,10 +128,11 @@ def test_the_diagnosis_says_when_its_friction_fit_contradicts_the_force(odb, tmp
     with make_executor("serial", odb) as executor:
         runner = Runner(prepared, odb, executor)
         train = list(range(len(prepared)))
-        right = _rod_reading(runner, train, (Setting("robot_friction", obj, 1.0),), obj)
-        wrong = _rod_reading(runner, train, (Setting("robot_friction", obj, 0.6),), obj)
+        right, support = _force_readings(runner, train, (Setting("robot_friction", obj, 1.0),), obj)
+        wrong, _ = _force_readings(runner, train, (Setting("robot_friction", obj, 0.6),), obj)
         assert runner.simulations == 2 * len(train)
     assert not right.contradicts and wrong.contradicts
+    assert support.agree and not support.contradicts  # the same replays read the footprint: uniform, as the world's
     assert wrong.factor == right.factor == pytest.approx(1.0, abs=0.05)
     data, report = evidence_report(prepared, wrong.sentence(), rod=wrong)
     rod = data["evidence"]["rod_friction"]
