@@ -64,9 +64,9 @@ class Torsion:
         return self.rho_sd <= INFORMATIVE * self.rho
 
 
-def torsion_radius(push: Push, outline: np.ndarray) -> Torsion | None:
-    """rho of one push (module docstring), the centre of pressure at the body origin; None with fewer than
-    MIN_SAMPLES samples where the rod presses on the moving object."""
+def torsion_radius(push: Push, outline: np.ndarray, centre: Sequence[float] = (0.0, 0.0)) -> Torsion | None:
+    """rho of one push (module docstring), the centre of pressure at `centre` (body frame x y: the model's centre
+    of mass); None with fewer than MIN_SAMPLES samples where the rod presses on the moving object."""
     dt = 1.0 / RATE
     if len(push.times) < 8 or push.times[-1] - push.times[0] < 2 * SMOOTHING:
         return None
@@ -77,7 +77,10 @@ def torsion_radius(push: Push, outline: np.ndarray) -> Torsion | None:
     rel = push.rod - push.xy
     local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
     _, point, _ = closest_on_outline(local, np.asarray(outline, dtype=float))
-    arm = np.column_stack([c * point[:, 0] - s * point[:, 1], s * point[:, 0] + c * point[:, 1]])  # world, from CoM
+    to_world = lambda p: np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]])  # noqa: E731
+    arm = to_world(point - np.asarray(centre, dtype=float))  # from the centre of pressure
+    lever = to_world(np.broadcast_to(np.asarray(centre, dtype=float), point.shape))  # the centre from the origin
+    v = v + w[:, None] * np.column_stack([-lever[:, 1], lever[:, 0]])  # the centre's velocity
     moment = arm[:, 0] * push.force[:, 1] - arm[:, 1] * push.force[:, 0]
     speed = np.hypot(*v.T)
     keep = touching(np.hypot(*push.force.T)) & (speed > MOVING_SHARE * np.percentile(speed, 90))
@@ -174,8 +177,9 @@ class SupportReading:
                     "of mass explains them (an off-centre mass, friction that changes with the place or the speed, "
                     "or an outline that differs from the model's)")
         if self.moved:
-            return head + ("; the chosen model moves the centre of mass or of pressure, which the reading takes at the "
-                           "database's centre of mass (an off-centre weight reads as a smaller footprint): not compared")
+            return head + ("; the chosen model moves the centre of mass or of pressure, which the reading takes at "
+                           "the database's centre of mass (an off-centre weight reads as a smaller footprint): not "
+                           "compared")
         model = "uniform" if self.fitted is None else f"scaled by {self.fitted:.2f}"
         return head + (f"; the model's footprint ({model}) contradicts it" if self.contradicts
                        else f"; the model's footprint ({model}) agrees with it")
@@ -194,16 +198,24 @@ def _g(value: float) -> float:
     return float(f"{value:.4g}")
 
 
+def _centre(trials: Sequence, odb, obj: str) -> tuple[float, float]:
+    from ..sim.shapes import mass_properties
+
+    com = mass_properties(odb, trials[0].world.objects[obj].type).com
+    return float(com[0]), float(com[1])
+
+
 def recorded_torsions(trials: Sequence, odb, obj: str) -> dict[str, Torsion]:
     """The informative torsional radii of `obj` in `trials` as recorded, by recording name (empty without a force
     track, a planar pusher or a prism outline)."""
     outline = _outline(trials, odb, obj)
     if outline is None:
         return {}
+    centre = _centre(trials, odb, obj)
     out = {}
     for trial in trials:
         push = recorded_push(trial, obj, RATE)
-        reading = torsion_radius(push, outline) if push is not None else None
+        reading = torsion_radius(push, outline, centre) if push is not None else None
         if reading is not None and reading.informative:
             out[trial.name] = reading
     return out
@@ -217,6 +229,7 @@ def support_reading(trials: Sequence, replays: Sequence[tuple[float, Sequence]],
     in the recordings and in every replay."""
     outline = _outline(trials, odb, obj)
     recorded = recorded_torsions(trials, odb, obj)
+    centre = _centre(trials, odb, obj) if recorded else (0.0, 0.0)
     pushes = []
     for k, trial in enumerate(trials):
         if trial.name not in recorded:
@@ -224,7 +237,7 @@ def support_reading(trials: Sequence, replays: Sequence[tuple[float, Sequence]],
         readings = []
         for scale, results in replays:
             push = replayed_push(trial, results[k], obj, RATE)
-            reading = torsion_radius(push, outline) if push is not None else None
+            reading = torsion_radius(push, outline, centre) if push is not None else None
             if reading is None or not reading.informative:
                 break
             readings.append((scale, reading))
