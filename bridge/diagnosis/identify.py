@@ -305,10 +305,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     say(f"friction: {_fmt(base_fit.values())}, rms {friction_scored.rms:.1f}"
         + (" (cut short by the time limit)" if base_fit.stopped else "") + f" [{runner.simulations} simulations]")
     rod, support = _force_readings(runner, train, friction_scored.model, focus[0])
-    for reading in (rod, support):
-        if reading is not None:
-            notes.append(reading.sentence())
-            say(notes[-1])
+    if rod is not None:
+        notes.append(rod.sentence())
+        say(notes[-1])
+    if support is not None:  # the report's evidence says it against the verdict's footprint (`_against_verdict`)
+        say(support.sentence())
     advance()
 
     # 3. screen candidates (each together with the friction coefficients), likely ones first

@@ -199,4 +199,6 @@ def summary_text(run: DiagnosisRun) -> str:
         lines.append(f"held-out e: {e['held_out_before']['e']:.5f} -> {e['held_out_after']['e']:.5f} on "
                      f"{len(ident.held_out)} recording(s)")
     lines.extend(f"note: {n}" for n in ident.notes)
+    if ident.support is not None:  # against the verdict's footprint, so not among the notes taken during the search
+        lines.append(f"note: {ident.support.sentence()}")
     return "\n".join(lines)

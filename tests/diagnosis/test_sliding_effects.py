@@ -34,6 +34,10 @@ def test_a_block_resting_on_a_small_disc_is_named_pressure_distribution(odb, tmp
     assert ident.verdict == "pressure_distribution", [(s.effect, s.rms) for s in ident.scored]
     assert 0.35 <= ident.winner.params["support_scale[block]"] <= 0.75  # concentrated towards the centre
     assert held_out < 0.5  # and it predicts the push it did not see
+    # the force and the twist read the footprint too, and are set against the verdict's, not the uniform model's
+    assert ident.support is not None and ident.support.scale < 0.85
+    assert ident.support.fitted == ident.winner.params["support_scale[block]"] and not ident.support.contradicts
+    assert not any("torsional friction" in n for n in ident.notes)  # said once, in the evidence
 
 
 @pytest.mark.slow
