@@ -42,7 +42,7 @@ from .effects.object_scale import outline_radius
 from .loader import NEGLIGIBLE, NOISE_SIGMAS, ContactFit, LoaderEvidence, read_adjustments
 from .locate import Localisation, locate
 from .outline import FrameFit, frame_evidence
-from .pressure import CALIBRATE, CENTRES, SupportReading, recorded_torsions, support_reading
+from .pressure import CALIBRATE, NEGLECTED, SupportReading, recorded_torsions, support_reading
 from .runs import Run, Runner, chi2_of
 from .search import Evaluator, FitResult, bic, correlation_time, differenced, fit, pose_error_of, screen
 from .work import WorkFit, work_fit
@@ -510,13 +510,14 @@ def _force_readings(runner: Runner, train: Sequence[int], model: Model, obj: str
 def _against_verdict(support: SupportReading | None, scored: Sequence[Scored], verdict: str, obj: str
                      ) -> SupportReading | None:
     """The reading against the verdict's footprint scale (None: the database's uniform footprint); not judged where
-    the verdict moves the centre of mass or of pressure (`SupportReading.moved`)."""
+    the verdict's model has what the reading neglects (`SupportReading.outside`: a surface_tilt world read 1.76,
+    a grain 1.65-1.74, where their models are uniform footprints)."""
     if support is None:
         return None
     model = next(s.model for s in scored if s.effect == verdict)
     fitted = next((s.value for s in model if s.kind == "support_scale" and s.target == obj), None)
-    moved = any(s.kind in CENTRES and s.target == obj and float(s.value) != 0.0 for s in model)
-    return replace(support, fitted=None if fitted is None else float(fitted), moved=moved)
+    outside = any(s.kind.startswith(NEGLECTED) and float(s.value) != 0.0 for s in model)
+    return replace(support, fitted=None if fitted is None else float(fitted), outside=outside)
 
 
 def _work_friction(work: WorkFit | None, friction: Sequence[Parameter], fitted: dict[str, float]

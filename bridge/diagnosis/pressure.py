@@ -47,7 +47,9 @@ MIN_SAMPLES = 15  # pushed samples a recording needs (0.15 s at RATE)
 INFORMATIVE = 0.25  # a push reads rho to this relative 1-sigma or better, or it does not count
 AGREE = 0.99  # the pushes' ratios agree when their scatter is within this quantile of chi^2 (their own sigmas)
 RHO_BOUNDS = (1e-3, 1.0)  # m
-CENTRES = ("com_x", "com_y", "support_x", "support_y")  # kinds that move the centre of mass or of pressure
+# kinds of what the reading neglects: a centre of mass or of pressure moved, a force of the world (a tilt, a post),
+# friction not the same everywhere and in every direction; a model with any of them is not judged by it
+NEGLECTED = ("com_", "support_x", "support_y", "surface_", "obstacle_", "patch_", "field_", "aniso_")
 CALIBRATE = 0.1  # a reading this far from uniform (relative) is replayed once more at its scale to calibrate it
 
 
@@ -156,15 +158,14 @@ class SupportReading:
     scale_sd: float
     agree: bool
     fitted: float | None = None
-    moved: bool = False  # the model compared moves the centre of mass or of pressure: the reading cannot judge it
+    outside: bool = False  # the model compared has what the reading neglects (NEGLECTED): not judged
 
     @property
     def contradicts(self) -> bool:
         """The model's footprint scale (1 without a fitted one) is more than NOISE_SIGMAS sigma and DISAGREES of it
-        off the reading's, the pushes agree on one, and the model keeps the centre of pressure where the reading
-        takes it."""
+        off the reading's, the pushes agree on one, and the model has nothing the reading neglects."""
         model = 1.0 if self.fitted is None else self.fitted
-        return (self.agree and not self.moved
+        return (self.agree and not self.outside
                 and abs(model - self.scale) > max(NOISE_SIGMAS * self.scale_sd, DISAGREES * self.scale))
 
     def sentence(self) -> str:
@@ -176,17 +177,17 @@ class SupportReading:
             return (head + "; the pushes disagree beyond their noise: no one distribution of weight under the centre "
                     "of mass explains them (an off-centre mass, friction that changes with the place or the speed, "
                     "or an outline that differs from the model's)")
-        if self.moved:
-            return head + ("; the chosen model moves the centre of mass or of pressure, which the reading takes at "
-                           "the database's centre of mass (an off-centre weight reads as a smaller footprint): not "
-                           "compared")
+        if self.outside:
+            return head + ("; the chosen model has what the reading neglects (a centre of mass or of pressure "
+                           "moved, a force of the world, or friction that changes with the place or the direction): "
+                           "not compared")
         model = "uniform" if self.fitted is None else f"scaled by {self.fitted:.2f}"
         return head + (f"; the model's footprint ({model}) contradicts it" if self.contradicts
                        else f"; the model's footprint ({model}) agrees with it")
 
     def to_json(self) -> dict[str, Any]:
         return {"object": self.object, "scale": _g(self.scale), "scale_sd": _g(self.scale_sd), "agree": self.agree,
-                "fitted": None if self.fitted is None else _g(self.fitted), "moved": self.moved,
+                "fitted": None if self.fitted is None else _g(self.fitted), "outside": self.outside,
                 "contradicts": self.contradicts, "replayed_scales": [_g(s) for s, _ in self.pushes[0].replayed],
                 "pushes": [{"recording": p.recording, "scale": _g(p.scale), "log_sd": _g(p.log_sd),
                             "recorded_rho_m": _g(p.recorded.rho),

@@ -128,7 +128,9 @@ def test_a_uniform_drake_world_reads_uniform(odb, tmp_path):
     none = Scored("none", "world", {}, {}, (), 0, 100.0, 100)
     assert _against_verdict(small, [none, com], "none", obj).contradicts
     judged = _against_verdict(small, [none, com], "com_offset", obj)
-    assert judged.moved and not judged.contradicts and "not compared" in judged.sentence()
+    assert judged.outside and not judged.contradicts and "not compared" in judged.sentence()
+    tilt = Scored("surface_tilt", "plane", {}, {}, (Setting("surface_slope_x", "plane", 0.01),), 1, 50.0, 100)
+    assert _against_verdict(small, [none, tilt], "surface_tilt", obj).outside  # a world force: not judged either
 
 
 @pytest.mark.slow
