@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from dataclasses import replace
@@ -22,7 +21,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bridge.diagnosis.cone import rod_reading  # noqa: E402
-from bridge.diagnosis.pressure import CALIBRATE, support_reading  # noqa: E402
+from bridge.diagnosis.pressure import calibrated_reading  # noqa: E402
 from bridge.fit.evaluate import sim_options  # noqa: E402
 from bridge.odb import load_object_database  # noqa: E402
 from bridge.params import trial_rollout  # noqa: E402
@@ -47,10 +46,7 @@ def read_set(name: str, paths: list[Path], odb, executor) -> dict:
 
     uniform = replays(())
     rod = rod_reading(trials, uniform, odb, obj, 1.0, 1.0)
-    support = support_reading(trials, [(1.0, uniform)], odb, obj)
-    if support is not None and support.agree and abs(math.log(support.scale)) > math.log(1.0 + CALIBRATE):
-        again = replays((Setting("support_scale", obj, support.scale),))
-        support = support_reading(trials, [(1.0, uniform), (support.scale, again)], odb, obj) or support
+    support = calibrated_reading(trials, uniform, lambda s: replays((Setting("support_scale", obj, s),)), odb, obj)
     truth = paths[0].parent / "truth.json"
     return {"set": name, "recordings": len(trials), "seconds": round(time.perf_counter() - started, 1),
             "truth": json.loads(truth.read_text()).get("world") if truth.exists() else None,

@@ -33,7 +33,7 @@ from scipy.signal import savgol_coeffs, savgol_filter
 
 from ..recording.mitpush import closest_on_outline, touching
 from .loader import NOISE_SIGMAS
-from .outline import recorded_push, replayed_push
+from .outline import object_outline, recorded_push, replayed_push
 
 RATE = 100.0  # Hz: the tracks, the rod and the force are resampled here before differencing (`work.RATE`)
 SMOOTHING = 0.07  # s: the Savitzky-Golay window of the rod's velocity over the object (`work.SMOOTHING`)
@@ -141,18 +141,10 @@ def push_groups(times: np.ndarray, xy: np.ndarray, yaw: np.ndarray, rod: np.ndar
             if np.sum(sign == s) >= MIN_SAMPLES and np.mean(np.sign(angle[sign == s]) == s) >= LEANS]
 
 
-def _outline(trials: Sequence, odb, obj: str) -> np.ndarray | None:
-    from ..rollout.trials import shape_outline
-
-    if not trials or obj not in trials[0].world.objects:
-        return None
-    return shape_outline(trials[0].world.objects[obj].type, odb)
-
-
 def contact_friction(trials: Sequence, odb, obj: str) -> ContactFriction | None:
     """The `ContactFriction` of the rod and `obj` over `trials` (`rollout.trials.Trial`) as recorded; None without
     a planar pusher, a force track, a prism outline or MIN_RECORDINGS recordings in which the rod slid along it."""
-    outline = _outline(trials, odb, obj)
+    outline = object_outline(trials, odb, obj)
     if outline is None:
         return None
     pushes = [push_groups(p.times, p.xy, p.yaw, p.rod, p.force, outline)
@@ -168,7 +160,7 @@ def simulated_contact_friction(trials: Sequence, results: Sequence, odb, obj: st
     replays read 9-36 % above their pair, more at small coefficients), so the recordings' reading against the
     replays' is the factor on the model's pair (`robot_friction`) they ask for (`calibrated_factor`), whatever the
     reading's own biases."""
-    outline = _outline(trials, odb, obj)
+    outline = object_outline(trials, odb, obj)
     if outline is None:
         return None
     pushes = [push_groups(p.times, p.xy, p.yaw, p.rod, p.force, outline)

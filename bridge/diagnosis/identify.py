@@ -42,7 +42,7 @@ from .effects.object_scale import outline_radius
 from .loader import NEGLIGIBLE, NOISE_SIGMAS, ContactFit, LoaderEvidence, read_adjustments
 from .locate import Localisation, locate
 from .outline import FrameFit, frame_evidence
-from .pressure import CALIBRATE, NEGLECTED, SupportReading, recorded_torsions, support_reading
+from .pressure import NEGLECTED, SupportReading, calibrated_reading, recorded_torsions
 from .runs import Run, Runner, chi2_of
 from .search import Evaluator, FitResult, bic, correlation_time, differenced, fit, pose_error_of, screen
 from .work import WorkFit, work_fit
@@ -498,12 +498,9 @@ def _force_readings(runner: Runner, train: Sequence[int], model: Model, obj: str
 
     results = replays(at_one)
     rod = rod_reading(trials, results, runner.odb, obj, 1.0, fitted) if read_rod else None
-    support = support_reading(trials, [(1.0, results)], runner.odb, obj)
-    if support is not None and support.agree and abs(math.log(support.scale)) > math.log(1.0 + CALIBRATE):
-        bounds = Parameter.of("support_scale", obj, runner.prepared[0].trial.world, runner.odb).bounds
-        scale = float(np.clip(support.scale, *bounds))
-        again = replays(at_one + (Setting("support_scale", obj, scale),))
-        support = support_reading(trials, [(1.0, results), (scale, again)], runner.odb, obj) or support
+    bounds = Parameter.of("support_scale", obj, trials[0].world, runner.odb).bounds
+    support = calibrated_reading(trials, results, lambda s: replays(at_one + (Setting("support_scale", obj, s),)),
+                                 runner.odb, obj, bounds)
     return rod, support
 
 

@@ -112,6 +112,15 @@ def rod_xy(trial, obj: str, times: np.ndarray) -> np.ndarray | None:
     return tip
 
 
+def object_outline(trials: Sequence, odb, obj: str) -> np.ndarray | None:
+    """`obj`'s prism outline (body frame) in the world of `trials`; None where it has none."""
+    from ..rollout.trials import shape_outline
+
+    if not trials or obj not in trials[0].world.objects:
+        return None
+    return shape_outline(trials[0].world.objects[obj].type, odb)
+
+
 @dataclass(frozen=True)
 class Push:
     """One push on an even time grid: the object's track (world x-y, unwrapped yaw), the rod's centre and the force

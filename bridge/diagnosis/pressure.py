@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -35,9 +35,9 @@ from scipy.signal import savgol_filter
 from scipy.stats import chi2
 
 from ..recording.mitpush import closest_on_outline, touching
-from .cone import DISAGREES, _outline
+from .cone import DISAGREES
 from .loader import NOISE_SIGMAS
-from .outline import Push, recorded_push, replayed_push
+from .outline import Push, object_outline, recorded_push, replayed_push
 
 RATE = 100.0  # Hz: the tracks, the rod and the force are resampled here before differencing (`work.RATE`)
 SMOOTHING = 0.07  # s: the Savitzky-Golay window of the object's twist (`work.SMOOTHING`)
@@ -209,7 +209,7 @@ def _centre(trials: Sequence, odb, obj: str) -> tuple[float, float]:
 def recorded_torsions(trials: Sequence, odb, obj: str) -> dict[str, Torsion]:
     """The informative torsional radii of `obj` in `trials` as recorded, by recording name (empty without a force
     track, a planar pusher or a prism outline)."""
-    outline = _outline(trials, odb, obj)
+    outline = object_outline(trials, odb, obj)
     if outline is None:
         return {}
     centre = _centre(trials, odb, obj)
@@ -228,7 +228,7 @@ def support_reading(trials: Sequence, replays: Sequence[tuple[float, Sequence]],
     or more footprint scales ((scale, `sim.simulate.ReplayResult`s run with `robot_force` and `joint_track`; None
     entries skipped), the last nearest the answer), against a `fitted` scale; None without two pushes informative
     in the recordings and in every replay."""
-    outline = _outline(trials, odb, obj)
+    outline = object_outline(trials, odb, obj)
     recorded = recorded_torsions(trials, odb, obj)
     centre = _centre(trials, odb, obj) if recorded else (0.0, 0.0)
     pushes = []
@@ -254,3 +254,14 @@ def support_reading(trials: Sequence, replays: Sequence[tuple[float, Sequence]],
     log_sd = max(1.0 / math.sqrt(weights.sum()), float(np.std(logs, ddof=1)) / math.sqrt(len(pushes)))
     scale = math.exp(mean)
     return SupportReading(obj, tuple(pushes), scale, scale * log_sd, bool(agree), fitted)
+
+
+def calibrated_reading(trials: Sequence, uniform: Sequence, replay: Callable[[float], Sequence], odb, obj: str,
+                       bounds: tuple[float, float] = (0.3, 1.6)) -> SupportReading | None:
+    """`support_reading` against the model's `uniform` replays, read again with `replay(scale)`'s (the replays at
+    the first reading, clipped to `bounds`) where the pushes agree on a scale more than CALIBRATE from uniform."""
+    support = support_reading(trials, [(1.0, uniform)], odb, obj)
+    if support is None or not support.agree or abs(math.log(support.scale)) <= math.log(1.0 + CALIBRATE):
+        return support
+    scale = float(np.clip(support.scale, *bounds))
+    return support_reading(trials, [(1.0, uniform), (scale, replay(scale))], odb, obj) or support
