@@ -74,12 +74,14 @@ def noisy_track(obj: str, times: np.ndarray, track: np.ndarray, rng: np.random.G
 def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
                   noise: tuple[float, float] = (NOISE_POSITION, NOISE_ROTATION),
                   force_noise: float | None = NOISE_FORCE,
-                  speeds: tuple[float, float] = PUSH_SPEEDS) -> tuple[list[Path], Truth]:
+                  speeds: tuple[float, float] = PUSH_SPEEDS, concealed: bool = True) -> tuple[list[Path], Truth]:
     """Write `n` recordings under `folder` with `case`'s effect concealed, truth.json beside them: recording
     folders (rec_00, ...) or, in a scene recorded as the MIT pushing dataset records (`mit_<shape>`), h5 files
     (rec_00.h5, ...). A case in a mismatched world (`case.world`) draws its `Mismatch` after the effect's truth
     and applies it beneath the effect. `force_noise` None leaves the rod's force sensor out (poses only); the
-    rod's speeds are drawn from `speeds` (m/s)."""
+    rod's speeds are drawn from `speeds` (m/s). `concealed` False writes the case's twin: the same draws, pushes,
+    world and noise with the effect's mechanism left out (`benchmarks/effect_size_benchmark.py`: how much the
+    effect changed what was recorded)."""
     mismatched = case.world == "mismatched"
     spec = scene_spec(case.scene, odb, varied=mismatched)
     rng = np.random.default_rng(case.seed)
@@ -90,6 +92,7 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
     else:
         mismatch = replace(mismatch, sensors=Sensors(position=noise[0], rotation=noise[1], force=force_noise or 0.0))
     effect = get_effect(case.effect)
+    mechanism = effect if concealed else get_effect("none")
     paths = []
     real_size = truth.params.get(pname("object_scale", spec.object), 1.0)  # pushes start clear of the real object
     for k, push in enumerate(design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local, scale=real_size,
@@ -98,10 +101,10 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
                         name=f"{case.name}/rec_{k:02d}")
         if mismatched:
             exact = mismatch.apply(exact, spec.object, spec.surface, odb)
-        true, recorded = effect.conceal(truth, spec, odb, exact)
+        true, recorded = mechanism.conceal(truth, spec, odb, exact)
         transformed = recorded is not true.telemetry
         if spec.recorder == "mit":
-            paths.append(_write_mit_push(folder / f"rec_{k:02d}.h5", spec, odb, effect, truth, true, exact, mismatch,
+            paths.append(_write_mit_push(folder / f"rec_{k:02d}.h5", spec, odb, mechanism, truth, true, exact, mismatch,
                                          rng, with_force=force_noise is not None, transformed=transformed))
             continue
         # a mismatched world's servo is not the model's: its telemetry is what the encoders read, as a real
@@ -110,10 +113,10 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
         result = run_rollout(true, odb, SimOptions(sample_rate=rate, end=float(push.times[-1]), robot_force=True,
                                                    joint_track=mismatched))
         if mismatched:
-            recorded = _encoders(result, true.telemetry.joint_names, effect, truth, spec, odb, exact, transformed)
+            recorded = _encoders(result, true.telemetry.joint_names, mechanism, truth, spec, odb, exact, transformed)
         rows = _every(len(result.times), round(rate / OBS_RATE))
         times, force = result.times[rows], result.robot_force[rows]
-        observed = noisy_track(spec.object, times, effect.recorded_track(truth, result.tracks[spec.object][rows]),
+        observed = noisy_track(spec.object, times, mechanism.recorded_track(truth, result.tracks[spec.object][rows]),
                                rng, noise if not mismatched else mismatch.sensors)
         sensed = None
         if force_noise is not None:  # a planar force sensor on the rod: fx, fy
@@ -132,6 +135,8 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
         paths.append(path)
     if mismatched:  # the world's differences belong to the truth: a clean world whose frictions moved is `friction`
         truth = replace(truth, extra={**truth.extra, "mismatch": mismatch.to_json()})
+    if not concealed:
+        truth = replace(truth, extra={**truth.extra, "concealed": False})
     write_atomic(folder / "truth.json", json.dumps({"case": case.name, **truth.to_json()}, indent=2))
     return paths, truth
 
