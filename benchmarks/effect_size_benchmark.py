@@ -10,8 +10,8 @@ that moved the object by centimetres: this tells them apart.
     python benchmarks/effect_size_benchmark.py [--proof benchmarks/results/prove_mismatched.json] [--only EFFECT]
 
 Needs the MIT dataset's meshes (BRIDGE_MIT_PUSH or ../shared/datasets/mit-push); measures the MIT-format cases
-(the tabletop's recording folders are left out). Writes benchmarks/results/effect_size.json, prints one row a case
-and, per effect, the verdicts that were right against how much the effect showed.
+(the tabletop's recording folders are left out). Prints one row a case and a summary; the full run (no `--only`)
+also writes them to benchmarks/results/effect_size.json.
 """
 from __future__ import annotations
 
@@ -71,14 +71,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--proof", default=str(REPO / "benchmarks" / "results" / "prove_mismatched.json"),
                         help="the proof's results (or its OUT/progress.json), for the verdicts beside the sizes")
-    parser.add_argument("--only", default=None, metavar="EFFECT")
+    measured = proof_cases("full", world="mismatched")
+    effects = sorted({c.effect for c in measured if c.effect != "none"})
+    parser.add_argument("--only", default=None, choices=effects, help="only the cases of one effect")
     args = parser.parse_args()
     odb = load_object_database()
     proof = Path(args.proof)
     data = json.loads(proof.read_text()) if proof.is_file() else []
     verdicts = {c["case"]: c["verdict"] for c in (data["cases"] if isinstance(data, dict) else data)}
-    cases = [c for c in proof_cases("full", world="mismatched")
-             if c.scene.startswith("mit_") and c.effect != "none" and args.only in (None, c.effect)]
+    cases = [c for c in measured if c.scene.startswith("mit_") and c.effect != "none" and args.only in (None, c.effect)]
     started, rows = time.perf_counter(), []
     for case in cases:
         pushes = case_size(case, odb, SETTINGS["full"].recordings)
@@ -98,6 +99,8 @@ def main() -> None:
                                                     for r in judged),
                "wrong": sum(not r["right"] for r in judged)}
     print(json.dumps(summary))
+    if args.only is not None:
+        return  # a part of the proof: printed, the file keeps the full run's figures
     OUT.write_text(json.dumps({"seconds": round(time.perf_counter() - started, 1), "proof": str(proof.name),
                                "thresholds": {"object_mm": SHOWS_MM, "object_deg": SHOWS_DEG,
                                               "log_force": SHOWS_FORCE},
