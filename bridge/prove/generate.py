@@ -40,6 +40,7 @@ from ..recording.observations import ObservedPoses, ObservedTrack
 from ..recording.recording import save_recording
 from ..recording.telemetry import Telemetry
 from ..rollout.rollout import Rollout, run_rollout
+from ..sim.scene import SimConfig, contact_mode
 from ..sim.simulate import SimOptions
 from ..values import Pose
 from ..world import world_to_dict
@@ -95,8 +96,9 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
     mechanism = effect if concealed else get_effect("none")
     paths = []
     real_size = truth.params.get(pname("object_scale", spec.object), 1.0)  # pushes start clear of the real object
+    hull = contact_mode(odb.get(spec.object_type), SimConfig(mesh_contact=mismatch.mesh_contact))[0] == "drake"
     for k, push in enumerate(design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local, scale=real_size,
-                                                   speeds=speeds)):
+                                           speeds=speeds, hull=hull)):
         exact = Rollout(nominal_world(spec, odb, push.start), Telemetry(push.times, ("pusher_x", "pusher_y"), push.path),
                         name=f"{case.name}/rec_{k:02d}")
         if mismatched:

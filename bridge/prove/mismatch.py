@@ -21,7 +21,8 @@ database's model as always.
 | motion capture          | white noise 0.05 .. 0.4 mm, 0.5 .. 3 mrad; a slow drift  | -                      |
 |                         | (AR(1), 0.1 s) up to 0.3 mm; rare clock steps back     |                        |
 | force sensor            | noise 0.02 .. 0.2 N, gain x 0.93 .. 1.07                | -                      |
-| rod start               | 0.5 .. 3 mm from the object (the matched proof: 4 mm)   | -                      |
+| rod start               | 0.5 .. 3 mm from the object (the matched proof: 4 mm); | -                      |
+|                         | from its hull where the world's contact is the hull     |                        |
 
 A case whose concealed effect is `friction` keeps the database's coefficients under it (the effect sets the
 surface's), so that its truth stays the effect's own.
