@@ -159,13 +159,11 @@ def design_pushes(spec: SceneSpec, odb: ObjectDatabase, rng: np.random.Generator
     before the rod moved, in each of the mismatched proof's 9 such cases). The rod's speed is drawn from `speeds`
     (m/s)."""
     yaw_range, push_range = (0.4, 0.5) if not spec.varied else (math.pi, 1.05 if local else math.pi)
-    from scipy.spatial import ConvexHull
-
-    from ..sim.prisms import outline_of
+    from ..sim.prisms import convex_hull, outline_of
 
     outline = scale * outline_of(odb.get(spec.object_type).geometry)
     if hull:
-        outline = outline[ConvexHull(outline).vertices]  # counter-clockwise, as scipy lists 2-D hulls
+        outline = convex_hull(outline)
     half = scale * half_extents(odb.get(spec.object_type).geometry)[:2]
     pushes = []
     for _ in range(n):

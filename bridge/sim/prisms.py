@@ -101,11 +101,17 @@ def contact_outlines(path: Path, scale: float, hull: bool, vertices: int) -> tup
     prism = mesh_prism(path, scale)
     outline = prism.outline
     if hull and not prism.convex:
-        from scipy.spatial import ConvexHull
-
-        outline = outline[ConvexHull(outline).vertices]  # counter-clockwise, as scipy lists 2-D hulls
+        outline = convex_hull(outline)
     own = None if (hull or prism.convex) else outline
     return own, footprint_polygon(outline, vertices)
+
+
+def convex_hull(poly: np.ndarray) -> np.ndarray:
+    """The convex hull of a polygon's vertices, counter-clockwise (as scipy lists 2-D hulls): what Drake's `Convex`
+    of a non-convex prism is in the plane."""
+    from scipy.spatial import ConvexHull
+
+    return np.asarray(poly)[ConvexHull(poly).vertices]
 
 
 def footprint_polygon(outline: np.ndarray, n: int) -> np.ndarray | None:

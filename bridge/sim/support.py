@@ -58,7 +58,7 @@ def bottom_polygon(obj_type: ObjectType, vertices: int) -> tuple[np.ndarray, flo
     rectangle, a cylinder's circle as a polygon, a mesh prism's footprint (`prisms.footprint_polygon`: its outline,
     or hull when the type uses the hull, simplified or subdivided to `vertices` vertices): at scale 1 what the
     object rests on without a support."""
-    from .prisms import footprint_polygon, mesh_prism
+    from .prisms import convex_hull, footprint_polygon, mesh_prism
 
     g = obj_type.geometry
     if g.shape == "box":
@@ -77,9 +77,7 @@ def bottom_polygon(obj_type: ObjectType, vertices: int) -> tuple[np.ndarray, flo
                          source=str(obj_type.source))
     outline = prism.outline
     if g.convex and not prism.convex:
-        from scipy.spatial import ConvexHull
-
-        outline = outline[ConvexHull(outline).vertices]
+        outline = convex_hull(outline)
     footprint = footprint_polygon(outline, vertices)
     return (outline if footprint is None else footprint), prism.z0, prism.z1
 

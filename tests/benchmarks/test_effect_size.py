@@ -16,7 +16,6 @@ from effect_size_benchmark import push_difference, shows  # noqa: E402
 SHAPE = "mit_steel_block"  # a box in the MIT format: no dataset needed
 
 
-
 @pytest.mark.slow
 def test_a_case_and_its_twin_differ_by_the_effect_alone(odb, tmp_path):
     """`concealed=False` writes the same pushes, world and noise without the effect's mechanism: a slug twice the

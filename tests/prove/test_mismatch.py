@@ -292,18 +292,15 @@ def test_a_non_convex_object_in_a_world_that_takes_its_hull_rests_until_the_rod_
     convex object: the rod must start clear of the hull, not of the model's non-convex outline. Started in the
     hull's concavity it starts inside a rigid body, and the world's first step threw the object 15-40 mm while the
     rod still held (this case's third push: 15 mm)."""
-    from scipy.spatial import ConvexHull
-
     from bridge.prove.generate import generate_case
     from bridge.prove.scenes import HOLD, PUSHER_RADIUS
     from bridge.recording.mitpush import load_push, signed_distance
-    from bridge.sim.prisms import outline_of
+    from bridge.sim.prisms import convex_hull, outline_of
 
     case = Case("mit_butter", "surface_tilt", "small", 2, "mismatched")
     paths, truth = generate_case(case, odb, tmp_path, 3)
     assert truth.extra["mismatch"]["mesh_contact"] == "drake"  # the world this test is about
-    outline = outline_of(odb.get("butter").geometry)
-    hull = outline[ConvexHull(outline).vertices]
+    hull = convex_hull(outline_of(odb.get("butter").geometry))
     for path in paths:
         push = load_push(path)
         x, y, yaw = push.object_pose[0]
