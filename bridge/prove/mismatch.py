@@ -10,7 +10,8 @@ database's model as always.
 
 | difference              | drawn                                                   | the model has          |
 |-------------------------|---------------------------------------------------------|------------------------|
-| time step               | 1, 2 or 4 ms                                            | 2 ms                   |
+| time step               | 1, 2 or 4 ms; halved where the step rocks the object    | 2 ms                   |
+|                         | (`generate.recordable_step`)                            |                        |
 | mesh contact            | prism footprint or Drake's own hull of the mesh         | prism footprint        |
 | contact stiffness       | hydroelastic modulus x 0.3 .. 3 (log-uniform)           | the database's         |
 | contact dissipation     | 0.3 .. 5 s/m                                            | the database's (1)     |
