@@ -170,9 +170,9 @@ def recordable_step(trues: Sequence[Rollout], obj: str, odb: ObjectDatabase) -> 
     the plane of its support by more than TIP further than the same push at half the step does (down to the
     smallest of `mismatch.TIME_STEPS`). A simulation that gains energy from its step is no world a recording can
     come from: at 4 ms on a mesh's convex hull the steel MIT shapes rock a few degrees on a level sheet and hop tens
-    of millimetres off a tilted one, flipping over (a hexagon on a 1 deg tilt: 4 of 8 pushes), where no real object
-    leaves the table; a diagnosis of such a world judges the simulator's failure, not the method. Every other world
-    keeps its drawn step (every difference the mismatch drew, a coarse step's included, stays)."""
+    of millimetres off a tilted one (a hexagon on a 1 deg tilt: 3 of 8 pushes flipped, 3 tipped 45-62 deg), where
+    no real object leaves the table; a diagnosis of such a world judges the simulator's failure, not the method.
+    Every other world keeps its drawn step (every difference the mismatch drew, a coarse step's included, stays)."""
     step = trues[0].config.time_step
 
     def tips(h: float) -> np.ndarray:

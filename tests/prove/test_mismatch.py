@@ -321,9 +321,9 @@ def test_a_non_convex_object_in_a_world_that_takes_its_hull_rests_until_the_rod_
 def test_a_world_whose_step_rocks_the_object_is_recorded_at_a_step_that_converges(odb, mit_push_root, tmp_path):
     """Drake's discrete contact at 4 ms on the hexagon mesh's hull, on a sheet tilted by a degree, launches the
     object and flips it (these two pushes: 179 deg out of the plane): no recording comes from such a world. The
-    generator halves the drawn step until the object tips as at half the step; the recorded hexagon then rests
-    until the rod reaches it, and the rod stays on its outline (at 4 ms the object moved 7 and 15 mm before the
-    rod did, and the rod reached 9 and 42 mm inside it)."""
+    generator halves the drawn step until the object tips no further than at half the step; the recorded hexagon
+    then rests until the rod reaches it, and the rod stays on its outline (at 4 ms the object moved 7 and 15 mm
+    before the rod did, and the rod reached 9 and 42 mm inside it)."""
     from bridge.prove.generate import generate_case
     from bridge.prove.scenes import HOLD, PUSHER_RADIUS
     from bridge.recording.mitpush import load_push, signed_distance
