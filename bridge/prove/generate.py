@@ -180,7 +180,7 @@ def recordable_step(trues: Sequence[Rollout], obj: str, odb: ObjectDatabase) -> 
                                                   SimOptions(sample_rate=100.0, end=float(t.telemetry.times[-1]))), obj)
                          for t in trues])
 
-    coarse = tips(step)
+    coarse = tips(step) if step > min(TIME_STEPS) else None  # a world at the finest step is not replayed again
     while step > min(TIME_STEPS):
         fine = tips(step / 2)
         if np.max(coarse - fine) <= TIP:
