@@ -45,7 +45,7 @@ from .types import SHAPES, Geometry, Gripper, ObjectType, Physics, PredicateDecl
 
 TYPE_KEYS = {"parent", "pddl_type", "abstract", "fixed", "geometry", "physics", "predicates", "robot", "doc"}
 GEOMETRY_KEYS = {"shape", "size", "mesh", "scale", "convex", "color", "contact", "footprint_vertices", "plane_top"}
-CONTACT_MODES = ("prism", "drake")  # bridge.sim.prisms.MODES
+CONTACT_MODES = ("prism", "hull", "drake")  # bridge.sim.prisms.MODES
 PHYSICS_KEYS = {"mass", "density", "com", "inertia", "friction", "dynamic_friction", "hydroelastic_modulus", "dissipation",
                 "friction_sd", "mass_sd", "com_sd"}
 PREDICATE_KEYS = {"params", "subject", "sie"}

@@ -19,8 +19,9 @@ class Geometry:
     box: `size` = (x, y, z) full lengths; cylinder: (radius, length) along z; sphere: (radius,);
     mesh: `mesh` path (OBJ), scaled by `scale`, `convex` collision hull when True.
     A mesh given as ``dataset://NAME/...`` whose dataset root is unknown has `mesh` None and `unresolved` set.
-    `contact` ("prism" | "drake") and `footprint_vertices` choose a compliant mesh prism's contact geometry for this
-    type (None: the simulator's settings, `SimConfig.mesh_contact` / `footprint_vertices`; docs/rollout.md).
+    `contact` ("prism" | "hull" | "drake") and `footprint_vertices` choose a compliant mesh prism's contact
+    geometry for this type (None: the simulator's settings, `SimConfig.mesh_contact` / `footprint_vertices`;
+    docs/rollout.md).
     `plane_top` (fixture boxes): the top carries mesh prisms (their soles, sim/prisms.py) as an unbounded plane
     (a Drake `HalfSpace`): for a sheet wider than anything on it travels, whose box faces' triangles would only
     split the contact polygons (docs/rollout.md, "The sheet as a plane").

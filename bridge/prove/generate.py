@@ -101,7 +101,7 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
     mechanism = effect if concealed else get_effect("none")
     paths = []
     real_size = truth.params.get(pname("object_scale", spec.object), 1.0)  # pushes start clear of the real object
-    hull = contact_mode(odb.get(spec.object_type), SimConfig(mesh_contact=mismatch.mesh_contact))[0] == "drake"
+    hull = contact_mode(odb.get(spec.object_type), SimConfig(mesh_contact=mismatch.mesh_contact))[0] != "prism"
     pushes = design_pushes(spec, odb, rng, n, mismatch.gap, local=effect.local, scale=real_size, speeds=speeds,
                            hull=hull)
 

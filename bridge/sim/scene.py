@@ -348,23 +348,25 @@ def contact_mode(obj_type: ObjectType, config: SimConfig) -> tuple[str, int]:
 
 def contact_shapes(obj_type: ObjectType, config: SimConfig, support=None):
     """(outline, footprint or None, sole or None): the collision shapes of a free object. Only compliant mesh
-    prisms differ from `drake_shape` (mode "prism", sim/prisms.py): a convex outline keeps Drake's `Convex` of the
-    file, a non-convex one (`convex: false`) becomes a tetrahedral mesh of its own; a footprint (at most
-    `footprint_vertices` vertices, the outline's area and centroid, fanned from its centre) is added when the
-    outline has more, and a sole, the pyramid over the footprint (`prisms.sole_tetrahedra`), for a plane top to
-    carry (`filter_footprints`). A `support` (`sim/support.py`) replaces the footprint by the one it describes,
-    for any flat-bottomed object, and the sole by its pyramid where the object has a footprint of its own."""
+    prisms differ from `drake_shape` (modes "prism" and "hull", sim/prisms.py): a convex outline keeps Drake's
+    `Convex` of the file, a non-convex one (`convex: false`) becomes a tetrahedral mesh of its own, or in mode
+    "hull" its convex hull (Drake's `Convex`: the object a simulator that takes every mesh as its hull pushes); a
+    footprint (at most `footprint_vertices` vertices, the outline's (or hull's) area and centroid, fanned from its
+    centre) is added when the outline has more, and a sole, the pyramid over the footprint
+    (`prisms.sole_tetrahedra`), for a plane top to carry (`filter_footprints`). A `support` (`sim/support.py`)
+    replaces the footprint by the one it describes, for any flat-bottomed object, and the sole by its pyramid where
+    the object has a footprint of its own."""
     from .prisms import centroid, contact_outlines, is_star, mesh_prism, prism_mesh
     from .support import support_polygon
 
     g = obj_type.geometry
     shape = drake_shape(obj_type)
     mode, vertices = contact_mode(obj_type, config)
-    prism = mesh_prism(g.mesh, g.scale) if g.shape == "mesh" and mode == "prism" else None
+    prism = mesh_prism(g.mesh, g.scale) if g.shape == "mesh" and mode != "drake" else None
     exact, poly, name = shape, None, f"{obj_type.name}_footprint"
     own = False  # the object has a footprint of its own: a plane top carries it, or its support's
     if prism is not None and obj_type.physics.hydroelastic_modulus is not None:
-        outline, footprint = contact_outlines(g.mesh, g.scale, g.convex, vertices)
+        outline, footprint = contact_outlines(g.mesh, g.scale, g.convex or mode == "hull", vertices)
         if outline is not None:
             exact = prism_mesh(outline, prism.z0, prism.z1, f"{obj_type.name}_outline")
         if footprint is not None:

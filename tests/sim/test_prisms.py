@@ -187,7 +187,8 @@ def test_the_rod_meets_the_outline_not_the_footprint(odb_copy, tmp_path):
 
 def test_a_non_convex_outline_stays_non_convex(odb_copy, tmp_path):
     """A rod in the U's notch is inside the convex hull but outside the outline: it touches the object when Drake
-    takes the mesh (its hull), not with the prism representation; one 1 mm into the U's side touches with both."""
+    takes the mesh (its hull) or the hull is asked for, not with the prism representation; one 1 mm into the U's
+    side touches with both."""
     odb = _odb(odb_copy, tmp_path, {"u_part": (U_SHAPE, {"convex": "false"})})
 
     def pairs(rod, config, settle=0.0):
@@ -200,6 +201,32 @@ def test_a_non_convex_outline_stays_non_convex(odb_copy, tmp_path):
     assert rod not in pairs(in_notch, SimConfig()) and rod in pairs(in_notch, SimConfig(mesh_contact="drake"))
     assert rod in pairs(on_side, SimConfig()) and rod in pairs(on_side, SimConfig(mesh_contact="drake"))
     assert frozenset(("obj", "surface")) in pairs(in_notch, SimConfig(), settle=0.02)  # carried by its own footprint
+    hull = SimConfig(mesh_contact="hull")  # the hull as the rod meets it, on the hull's footprint
+    assert rod in pairs(in_notch, hull) and frozenset(("obj", "surface")) in pairs((0.2, 0.2), hull, settle=0.02)
+
+
+def test_drakes_own_hull_twists_by_where_it_stands_the_footprint_does_not(odb_copy, tmp_path, spin_down):
+    """Why the mismatched proof's worlds take the hull as geometry on an even footprint (`mesh_contact: "hull"`),
+    not Drake's own fan (`prove/mismatch.py`): spun on the sheet, a triangle resting on the fan turns by amounts
+    that hinge on where the sheet's triangles cut its few bottom tetrahedra (tri1 on the MIT sheet: 0.14 to 2.5
+    times the footprint's turn in four places), where on its footprint, or on the hull's, it turns alike
+    everywhere: a solver's torsion, not an object's."""
+    triangle = np.array([[-0.04, -0.03], [0.05, -0.03], [-0.01, 0.05]])
+    odb = _odb(odb_copy, tmp_path, {"tri": (triangle, {})})
+    places = [(0.0, 0.0), (0.05, 0.0), (0.0, 0.05), (0.1, -0.07)]
+
+    def turns(mode: str) -> np.ndarray:
+        out = []
+        for xy in places:
+            world = _world("tri")
+            world = replace(world, objects={**world.objects, "obj": replace(world.objects["obj"], pose=Pose(
+                (xy[0], xy[1], HALF)))})
+            out.append(spin_down(world, odb, "obj", SimConfig(mesh_contact=mode)))
+        return np.array(out)
+
+    footprint, hull, fan = turns("prism"), turns("hull"), turns("drake")
+    assert np.ptp(footprint) < 0.02 * footprint.mean() and np.allclose(hull, footprint, rtol=0.02)
+    assert fan.max() > 1.3 * footprint.mean() and fan.min() < 0.7 * footprint.mean()
 
 
 def test_a_type_chooses_its_representation(odb_copy, tmp_path):
@@ -215,8 +242,9 @@ def test_a_bad_representation_is_one_error_naming_the_field(odb_copy, tmp_path):
     (tmp_path / "m").mkdir()
     write_prism(tmp_path / "m" / "disk.obj", circle())
     path = odb_copy / "types" / "zz.yaml"
-    path.write_text(f"d: {{parent: mit_shape, geometry: {{shape: mesh, mesh: {tmp_path}/m/disk.obj, contact: hull}}}}\n")
-    with pytest.raises(ObjectDatabaseError, match=r"d\.geometry\.contact: contact 'hull' is not one of prism, drake"):
+    path.write_text(f"d: {{parent: mit_shape, geometry: {{shape: mesh, mesh: {tmp_path}/m/disk.obj, contact: hulls}}}}\n")
+    with pytest.raises(ObjectDatabaseError,
+                       match=r"d\.geometry\.contact: contact 'hulls' is not one of prism, hull, drake"):
         load_object_database(odb_copy)
     path.write_text(f"d: {{parent: mit_shape, geometry: {{shape: mesh, mesh: {tmp_path}/m/disk.obj, "
                     "footprint_vertices: 2}}\n")

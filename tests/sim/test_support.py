@@ -103,3 +103,17 @@ def test_no_footprint_twists_wider_than_the_objects_own_farthest_points(push, od
     assert widest_scale(odb.get("steel_block")) == pytest.approx(math.sqrt(3), rel=1e-6)
     lo, hi = kind_named("support_scale").bounds(push.world, odb, "block")
     assert (lo, hi) == (0.3, pytest.approx(math.sqrt(3)))
+
+
+def test_a_footprint_scaled_by_s_twists_as_the_weight_s_times_as_far_out(push, odb, spin_down):
+    """What `support_scale` means, as Drake has it: spun on the plate, the block on a footprint at scale s turns
+    1/s as far as on its own bottom (torsional friction mu m g <r>, the weight's mean distance from the centre s
+    times as large). The same spin-down shows Drake's own fan of a mesh twisting by where it stands
+    (`tests/sim/test_prisms.py`)."""
+    def turn(*extras):
+        return spin_down(push.world, odb, "block", push.config, push.values, extras)
+
+    own = turn()
+    assert math.degrees(own) > 20  # a spin the block really slides through, not a stick
+    for scale in (0.7, 1.3):
+        assert own / turn(SupportPressure("block", scale)) == pytest.approx(scale, abs=0.02)
