@@ -159,20 +159,22 @@ def generate_case(case: Case, odb: ObjectDatabase, folder: Path, n: int, *,
 
 TIP = math.radians(2.0)  # rad: how much further than at half its step a world may tip its object out of the plane of
 # its support. A step too coarse for the contact adds energy and the object rocks or hops, in every push more than
-# at half the step: Drake's discrete contact at 4 ms on a mesh's hull tips the MIT shapes 3-6 deg more than at 2 ms
-# on a level sheet and flips one on a tilted one. Where tipping is the world's own (the tabletop's boxes under the
-# arm tip 2-21 deg), it depends on the step either way, by up to 6 deg down to 0.5 ms, and at the coarser step by at
-# most 1.3 deg more in the proof's worlds: chaos of the contact, not energy from the step
+# at half the step: Drake's discrete contact at 4 ms on Drake's own fan of a mesh's hull (`mesh_contact: "drake"`,
+# drawn until session 47) tips the MIT shapes 3-6 deg more than at 2 ms on a level sheet and flips one on a tilted
+# one; on an even footprint no world of the full proof tips more. Where tipping is the world's own (the tabletop's
+# boxes under the arm tip 2-21 deg), it depends on the step either way, by up to 6 deg down to 0.5 ms, and at the
+# coarser step by at most 1.3 deg more in the proof's worlds: chaos of the contact, not energy from the step
 
 
 def recordable_step(trues: Sequence[Rollout], obj: str, odb: ObjectDatabase) -> float:
     """The step of the worlds `trues` (one per push, all at the same step), halved while a push tips `obj` out of
     the plane of its support by more than TIP further than the same push at half the step does (down to the
     smallest of `mismatch.TIME_STEPS`). A simulation that gains energy from its step is no world a recording can
-    come from: at 4 ms on a mesh's convex hull the steel MIT shapes rock a few degrees on a level sheet and hop tens
-    of millimetres off a tilted one (a hexagon on a 1 deg tilt: 3 of 8 pushes flipped, 3 tipped 45-62 deg), where
-    no real object leaves the table; a diagnosis of such a world judges the simulator's failure, not the method.
-    Every other world keeps its drawn step (every difference the mismatch drew, a coarse step's included, stays)."""
+    come from: at 4 ms on Drake's fan of a mesh's hull the steel MIT shapes rock a few degrees on a level sheet
+    and hop tens of millimetres off a tilted one (a hexagon on a 1 deg tilt: 3 of 8 pushes flipped, 3 tipped 45-62
+    deg), where no real object leaves the table; a diagnosis of such a world judges the simulator's failure, not
+    the method. Every other world keeps its drawn step (every difference the mismatch drew, a coarse step's
+    included, stays)."""
     step = trues[0].config.time_step
 
     def tips(h: float) -> np.ndarray:

@@ -372,7 +372,8 @@ def contact_shapes(obj_type: ObjectType, config: SimConfig, support=None):
         if footprint is not None:
             own, poly, z0, z1 = True, footprint, prism.z0, prism.z1
     if support is not None:
-        (poly, z0, z1), name = support_polygon(obj_type, support, vertices), f"{obj_type.name}_support"
+        poly, z0, z1 = support_polygon(obj_type, support, vertices, mode == "hull")
+        name = f"{obj_type.name}_support"
     if poly is None:
         return exact, None, None
     # the pyramid needs a polygon star-shaped from its centroid; another (a non-convex outline simplified) is its
@@ -465,7 +466,8 @@ def _slip_friction(builder, plant, world: WorldState, odb: ObjectDatabase, confi
     entries = []
     for extra in wanted:
         obj_type = odb.get(world.objects[extra.object].type)
-        polygon, z0, _ = bottom_polygon(obj_type, contact_mode(obj_type, config)[1])
+        mode, vertices = contact_mode(obj_type, config)
+        polygon, z0, _ = bottom_polygon(obj_type, vertices, mode == "hull")
         points, weights = footprint_points(polygon)
         entries.append((extra, bodies[extra.object], points, weights, z0))
     slip = builder.AddSystem(SlipFriction(plant, entries))

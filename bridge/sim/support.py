@@ -53,11 +53,11 @@ class SupportPressure:
                              f"{', '.join(free) or 'none'}")
 
 
-def bottom_polygon(obj_type: ObjectType, vertices: int) -> tuple[np.ndarray, float, float]:
+def bottom_polygon(obj_type: ObjectType, vertices: int, hull: bool = False) -> tuple[np.ndarray, float, float]:
     """(polygon (n, 2) counter-clockwise, z0, z1) of a flat-bottomed free object's footprint, object frame: a box's
     rectangle, a cylinder's circle as a polygon, a mesh prism's footprint (`prisms.footprint_polygon`: its outline,
-    or hull when the type uses the hull, simplified or subdivided to `vertices` vertices): at scale 1 what the
-    object rests on without a support."""
+    or hull when the type uses the hull or `hull` asks for it (`mesh_contact: "hull"`), simplified or subdivided to
+    `vertices` vertices): at scale 1 what the object rests on without a support."""
     from .prisms import convex_hull, footprint_polygon, mesh_prism
 
     g = obj_type.geometry
@@ -76,15 +76,16 @@ def bottom_polygon(obj_type: ObjectType, vertices: int) -> tuple[np.ndarray, flo
                          f"{obj_type.name!r} is a {'mesh that is not a prism' if g.shape == 'mesh' else g.shape}",
                          source=str(obj_type.source))
     outline = prism.outline
-    if g.convex and not prism.convex:
+    if (g.convex or hull) and not prism.convex:
         outline = convex_hull(outline)
     footprint = footprint_polygon(outline, vertices)
     return (outline if footprint is None else footprint), prism.z0, prism.z1
 
 
-def support_polygon(obj_type: ObjectType, support: SupportPressure, vertices: int) -> tuple[np.ndarray, float, float]:
-    """(the polygon, bottom z, top z) the object rests on under `support`: a compliant prism over it carries the
-    object with uniform pressure (`scene.contact_shapes`)."""
+def support_polygon(obj_type: ObjectType, support: SupportPressure, vertices: int,
+                    hull: bool = False) -> tuple[np.ndarray, float, float]:
+    """(the polygon, bottom z, top z) the object rests on under `support` (`hull`: as `bottom_polygon`): a
+    compliant prism over it carries the object with uniform pressure (`scene.contact_shapes`)."""
     from .prisms import centroid, signed_area
 
     if obj_type.physics.hydroelastic_modulus is None:
@@ -95,7 +96,7 @@ def support_polygon(obj_type: ObjectType, support: SupportPressure, vertices: in
             math.isfinite(v) for v in support.offset):
         raise SceneError(f"support pressure on {support.object!r}: scale must be in [{MIN_SCALE}, {MAX_SCALE}] and the "
                          f"offset finite, got scale {support.scale!r}, offset {support.offset!r}")
-    poly, z0, z1 = bottom_polygon(obj_type, vertices)
+    poly, z0, z1 = bottom_polygon(obj_type, vertices, hull)
     if support.polygon is not None:
         moved = np.asarray(support.polygon, dtype=float)
         if moved.ndim != 2 or moved.shape[1] != 2 or len(moved) < 3 or signed_area(moved) <= 0:

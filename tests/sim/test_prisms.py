@@ -16,6 +16,7 @@ from bridge.sim.contacts import ContactReader  # noqa: E402
 from bridge.sim.prisms import (centroid, convex_pieces, footprint_polygon, is_convex, is_simple,  # noqa: E402
                                mesh_prism, prism_tetrahedra, signed_area, simplify)
 from bridge.sim.scene import SceneValues, SimConfig, build_scene  # noqa: E402
+from bridge.sim.support import bottom_polygon  # noqa: E402
 from bridge.values import Pose  # noqa: E402
 from bridge.world import ObjectState, RobotState, WorldState  # noqa: E402
 
@@ -203,6 +204,9 @@ def test_a_non_convex_outline_stays_non_convex(odb_copy, tmp_path):
     assert frozenset(("obj", "surface")) in pairs(in_notch, SimConfig(), settle=0.02)  # carried by its own footprint
     hull = SimConfig(mesh_contact="hull")  # the hull as the rod meets it, on the hull's footprint
     assert rod in pairs(in_notch, hull) and frozenset(("obj", "surface")) in pairs((0.2, 0.2), hull, settle=0.02)
+    # what a support, anisotropic friction or a friction field spreads over: the hull's footprint in that mode
+    assert signed_area(bottom_polygon(odb.get("u_part"), 16, hull=True)[0]) == pytest.approx(0.08 * 0.06)
+    assert signed_area(bottom_polygon(odb.get("u_part"), 16)[0]) == pytest.approx(0.08 * 0.06 - 0.02 * 0.03)
 
 
 def test_drakes_own_hull_twists_by_where_it_stands_the_footprint_does_not(odb_copy, tmp_path, spin_down):
