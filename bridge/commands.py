@@ -468,7 +468,7 @@ def diagnose(args) -> int:
                              effects=[e.strip() for e in args.effects.split(",")] if args.effects else None,
                              max_duration=args.max_duration, shape=args.shape, time_limit=args.time_limit,
                              time_step=args.time_step, log=progress.write, progress=progress,
-                             quasi_static=not args.own_speed)
+                             quasi_static=not args.own_speed, contact=args.fit_contact)
     finally:
         progress.close()
     print(summary_text(run))

@@ -171,14 +171,16 @@ def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | 
                    quiet: bool = False, shape: str | None = None, time_limit: float | None = None,
                    time_step: float | str = "auto", log: Callable[[str], None] | None = None,
                    progress: Callable[[int, int | None], None] | None = None,
-                   quasi_static: bool = True) -> DiagnosisRun:
+                   quasi_static: bool = True, contact: bool = False) -> DiagnosisRun:
     """Load recordings (folders, MIT .h5 files, folders of .h5 files; `shape` for .h5 files whose name does not
-    tell theirs) and diagnose them. `log` defaults to stderr (nothing when `quiet`)."""
+    tell theirs) and diagnose them. `log` defaults to stderr (nothing when `quiet`); `contact`: the object's
+    contact stiffness and damping among the ordinary parameters (`identify.Options.contact`)."""
     from ..rollout.trials import load_trials
 
     # MIT pushes at their full motion-capture rate: the noise is estimated from every sample, the residual is
     # compared at RESIDUAL_RATE
-    options = Options(effects=tuple(effects) if effects else None)  # checked before any recording is read
+    # checked before any recording is read
+    options = Options(effects=tuple(effects) if effects else None, contact=contact)
     trials = load_trials(paths, odb, max_duration=max_duration, observation_rate=250.0, shape=shape)
     if log is None and not quiet:
         log = lambda m: print(m, file=sys.stderr, flush=True)  # noqa: E731

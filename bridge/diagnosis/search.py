@@ -96,7 +96,11 @@ class FitResult:
         - one of a parameter that only says how another acts (`Kind.inert_without`: where a changed mass sits,
           `mass_spread`), whose bound is itself a state the world takes (the weight at the very centre): in a
           world that differs from the model elsewhere (a softer pusher) such a parameter is where the misfit
-          goes, and the value it qualifies (the mass) is still what the recordings say.
+          goes, and the value it qualifies (the mass) is still what the recordings say;
+        - one of the contact's own stiffness or damping (`Kind.contact_model`), fitted among the ordinary
+          parameters to take up how the world's contact differs from the model's (a softer pusher, another
+          solver): no damping is a state a contact takes, and what presses there is a leftover the contact
+          parameters cannot take up, not a wrong effect.
         The ordinary parameters are pair coefficients (`kinds.PairFriction`), each free of the other, so each
         counts on its own like any parameter. By name, the bound reached."""
         if self.jacobian is None or self.space.dim == 0:
@@ -107,7 +111,7 @@ class FitResult:
         beyond = self.x + step
         out = {}
         for i, p in enumerate(self.space.free):
-            if p.kind.inert_without is not None:
+            if p.kind.inert_without is not None or p.kind.contact_model:
                 continue
             if self.x[i] >= upper[i] - AT_BOUND and beyond[i] > upper[i]:
                 out[p.name] = float(p.bounds[1])

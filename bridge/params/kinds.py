@@ -74,6 +74,10 @@ class Kind:
     # friction coefficient also sets the dynamic one, a post at its null place is still a post)
     null_is_world: ClassVar[bool] = False
     inert_without: ClassVar[str | None] = None  # a kind that changes nothing unless this kind is set too
+    # how the simulator makes contact (stiffness, damping), not a property of the world a user asks about: a
+    # diagnosis fits it among the ordinary parameters, and its bounds are states a contact can take (no
+    # damping), so a fit pressing on one says nothing about the model family (`search.FitResult.at_bound`)
+    contact_model: ClassVar[bool] = False
 
     def select(self, target: str, world: WorldState, odb: ObjectDatabase) -> tuple[str, ...]:
         """The names in `world` that `target` selects; () when it names nothing there."""
@@ -217,6 +221,7 @@ def current_friction(rollout: Rollout, odb: ObjectDatabase, name: str) -> float 
 
 class Dissipation(_ObjectField):
     null_is_world = True
+    contact_model = True
     name, field_name, unit, targets, physical = "dissipation", "dissipation", "s/m", "contacts", DISSIPATION
     doc = "Hunt-Crossley dissipation of the contact"
 
@@ -234,6 +239,7 @@ class Dissipation(_ObjectField):
 
 class HydroelasticModulus(_ObjectField):
     null_is_world = True
+    contact_model = True
     name, field_name, unit, physical = "hydroelastic_modulus", "hydroelastic_modulus", "Pa", HYDROELASTIC_MODULUS
     doc = "hydroelastic modulus of a compliant object (contact stiffness)"
 

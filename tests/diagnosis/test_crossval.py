@@ -123,7 +123,8 @@ def _pressing_fit(names: list[str], x: list[float]):
     """A FitResult whose residual asks every parameter to grow past its upper bound 1 (x in normalised units)."""
     from bridge.diagnosis.search import FitResult
 
-    free = [SimpleNamespace(name=n, bounds=(0.05, 1.5), kind=SimpleNamespace(name=n.split("[")[0], inert_without=None))
+    free = [SimpleNamespace(name=n, bounds=(0.05, 1.5), kind=SimpleNamespace(name=n.split("[")[0], inert_without=None,
+                                                                                     contact_model=False))
             for n in names]
     space = SimpleNamespace(dim=len(names), free=free,
                             normal_bounds=lambda: (np.zeros(len(names)), np.ones(len(names))))

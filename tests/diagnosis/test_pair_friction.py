@@ -94,3 +94,34 @@ def test_a_slippery_rod_on_a_gripping_surface_is_fitted_as_its_two_pairs(odb, tm
     assert found["sliding_friction[block]"] == pytest.approx(true_sliding, rel=0.2), found
     assert found["robot_friction[block]"] * combined_friction(b0, r0) == pytest.approx(true_rod, rel=0.3), found
     assert result.chi2 < 2.0 * result.n
+
+
+@pytest.mark.slow
+def test_a_stiffer_contact_is_taken_up_by_the_ordinary_model_with_its_contact_parameters(odb, tmp_path):
+    """Recordings of a block whose contact is three times as stiff as the database's: the friction pairs alone leave
+    a third more than the noise's chi^2 (what an effect fitted beside them would be credited with); with the
+    contact's stiffness and damping among the ordinary parameters the fit reaches the noise and finds the
+    stiffness."""
+    paths, _ = generate_case(Case("planar", "none", "medium", 2), odb, tmp_path / "case", 2, force_noise=None)
+    trials = load_trials(paths, odb)
+    world = trials[0].world
+    stiffness = odb.get(world.objects["block"].type).physics.hydroelastic_modulus
+    truth = (Setting("hydroelastic_modulus", "block", 3.0 * stiffness), Setting("dissipation", "block", 0.3))
+    rng = np.random.default_rng(0)
+    observed = []
+    for trial in trials:
+        end = float(trial.observations.tracks[0].times[-1])
+        result = run_rollout(trial_rollout(trial, truth, odb), odb, SimOptions(sample_rate=100.0, end=end))
+        track = noisy_track("block", result.times, result.tracks["block"], rng, (NOISE_POSITION, NOISE_ROTATION))
+        observed.append(type(trial)(**{**vars(trial), "observations": ObservedPoses((track,))}))
+    with make_executor("serial", odb) as executor:
+        runner = Runner([prepare(t, odb, 25.0) for t in observed], odb, executor)
+        ev = Evaluator(runner, [0, 1])
+        fits = {}
+        for contact in (False, True):
+            space = ParameterSet(tuple(_friction_parameters(world, odb, "block", contact)))
+            fits[contact] = fit(ev, space, np.zeros(space.dim), max_iterations=8)
+    assert [p.kind.name for p in fits[True].space.free][2:] == ["hydroelastic_modulus", "dissipation"]
+    assert fits[False].chi2 > 1.25 * fits[False].n
+    assert fits[True].chi2 < 1.1 * fits[True].n
+    assert fits[True].values()["hydroelastic_modulus[block]"] == pytest.approx(3.0 * stiffness, rel=0.3)

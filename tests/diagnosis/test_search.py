@@ -94,6 +94,23 @@ def test_where_a_changed_mass_sits_does_not_condemn_the_mass_on_its_bound():
     assert at([upper[0], lower[1]], np.array([upper[0] + 3.0, lower[1] - 3.0])) == {"mass[a]": 5.0}
 
 
+def test_the_contacts_damping_on_its_bound_does_not_condemn_the_model():
+    """No damping is a state a contact takes, and the contact's stiffness and damping are fitted among the
+    ordinary parameters to take up how the world's contact differs (`Kind.contact_model`): pressing below zero
+    damping says the contact cannot take up more, not that the effect is wrong. A friction pair pressing past its
+    bound still counts."""
+    space = ParameterSet((Parameter(KINDS["sliding_friction"], "a", bounds=(0.02, 1.5), start=0.25, step=0.075),
+                          Parameter(KINDS["dissipation"], "a", bounds=(0.0, 10.0), start=1.0, step=0.3)))
+    lower, upper = space.normal_bounds()
+    J = np.tile(np.eye(2), (10, 1))
+
+    def at(x, target):
+        return FitResult(space, np.asarray(x, float), J @ (np.asarray(x, float) - target), J, (), 0).at_bound()
+
+    assert at([0.0, lower[1]], np.array([0.0, lower[1] - 3.0])) == {}
+    assert at([upper[0], lower[1]], np.array([upper[0] + 3.0, lower[1] - 3.0])) == {"sliding_friction[a]": 1.5}
+
+
 @pytest.fixture(scope="module")
 def friction_case(odb, tmp_path_factory):
     """Two generated pushes on a surface with twice the database's friction (real Drake), prepared."""
