@@ -19,6 +19,7 @@ The figures cover every case in OUT/progress.json (so a run resumed after an int
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -40,6 +41,10 @@ def main() -> None:
     parser.add_argument("--only", default=None, metavar="SCENE", help="only the cases of one scene (planar, tabletop, "
                         "mit_<shape>)")
     parser.add_argument("--limit", type=int, default=None, help="at most N cases (in the proof's order)")
+    parser.add_argument("--cases", default=None, metavar="A,B", help="only the cases named")
+    parser.add_argument("--fit-contact", action="store_true", help="diagnose with the object's contact stiffness and "
+                        "damping among the ordinary parameters (identify.Options.contact); the figures go to "
+                        "prove_*_fit_contact.json")
     parser.add_argument("--resume", action="store_true", help="skip cases already in OUT/progress.json")
     parser.add_argument("--summarise", action="store_true",
                         help="run nothing: print and save the figures of the cases in OUT/progress.json")
@@ -53,14 +58,20 @@ def main() -> None:
         odb = load_object_database()
         done = {r["case"] for r in rows}
         cases = [c for c in proof_cases("full", world=args.world) if args.only is None or c.scene == args.only]
+        if args.cases:
+            named = set(args.cases.split(","))
+            cases = [c for c in cases if c.name in named]
         cases = cases[:args.limit] if args.limit is not None else cases
+        settings = SETTINGS["full"]
+        if args.fit_contact:
+            settings = dataclasses.replace(settings, options=dataclasses.replace(settings.options, contact=True))
         for k, case in enumerate(cases):
             if case.name in done:
                 continue
             # workers of their own per case: kept for the whole proof, each grew to 12 GB after some 40 cases and
             # the machine (24 GB) stalled; starting two takes a few seconds of a case's minutes
             with make_executor("serial" if args.workers == 1 else "process", odb, workers=args.workers) as executor:
-                r = run_case(case, odb, out / case.name, SETTINGS["full"], executor=executor)
+                r = run_case(case, odb, out / case.name, settings, executor=executor)
             rows.append(r.to_json())
             progress_path.write_text(json.dumps(rows, indent=1))
             print(f"[{k + 1}/{len(cases)}] {case.name}: {r.verdict} ({r.recovery.text}) {r.seconds:.0f} s", flush=True)
@@ -70,7 +81,8 @@ def main() -> None:
     for world, name in (("matched", "prove.json"), ("mismatched", "prove_mismatched.json")):
         chosen = [r for r in rows if r.get("world", "matched") == world]
         if chosen:
-            result_path = REPO / "benchmarks" / "results" / name
+            result_path = REPO / "benchmarks" / "results" / (name.replace(".json", "_fit_contact.json")
+                                                             if args.fit_contact else name)
             result_path.parent.mkdir(parents=True, exist_ok=True)
             result_path.write_text(json.dumps(proof_json("full", chosen, seconds), indent=2) + "\n")
             print(f"wrote {result_path}")

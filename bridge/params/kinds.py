@@ -75,8 +75,9 @@ class Kind:
     null_is_world: ClassVar[bool] = False
     inert_without: ClassVar[str | None] = None  # a kind that changes nothing unless this kind is set too
     # how the simulator makes contact (stiffness, damping), not a property of the world a user asks about: a
-    # diagnosis fits it among the ordinary parameters, and its bounds are states a contact can take (no
-    # damping), so a fit pressing on one says nothing about the model family (`search.FitResult.at_bound`)
+    # diagnosis may fit it among the ordinary parameters (`identify.Options.contact`), and its bounds are states
+    # a contact can take (no damping), so a fit pressing on one says nothing about the model family
+    # (`search.FitResult.at_bound`)
     contact_model: ClassVar[bool] = False
 
     def select(self, target: str, world: WorldState, odb: ObjectDatabase) -> tuple[str, ...]:
