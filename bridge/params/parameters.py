@@ -174,7 +174,11 @@ class ParameterSet:
         return np.clip((np.asarray(values, dtype=float) - self.origin) / self.steps, lower, upper)
 
     def from_normal(self, x: Sequence[float]) -> np.ndarray:
-        return self.origin + np.asarray(x, dtype=float) * self.steps
+        """Values of normalised coordinates, within the bounds: a point on a bound comes back a rounding error
+        past it (a damping of -2e-16 s/m, which Drake refuses), never to be simulated."""
+        lo = np.array([p.bounds[0] for p in self.free])
+        hi = np.array([p.bounds[1] for p in self.free])
+        return np.clip(self.origin + np.asarray(x, dtype=float) * self.steps, lo, hi)
 
     def to_dict(self) -> dict[str, Any]:
         from .files import entry_dict

@@ -8,8 +8,8 @@ import pytest
 from bridge.diagnosis.crossval import Prediction
 from bridge.diagnosis.effects import get_effect
 from bridge.diagnosis.identify import (CV_GAIN, Candidate, Scored, _acceptable, _cv_reason, _friction_parameters,
-                                       _friction_starts, _full_fits, _stability, _verdict, _with_uncertainty,
-                                       _work_friction)
+                                       _friction_starts, _full_fits, _held_contact, _space, _stability, _verdict,
+                                       _with_uncertainty, _work_friction)
 from bridge.diagnosis.search import FitResult
 from bridge.diagnosis.work import AGREES, WorkFit
 from bridge.params import KINDS, Parameter, ParameterSet
@@ -267,3 +267,22 @@ def test_the_report_gives_each_parameter_the_range_its_refits_without_one_record
     # the sign of the offset changes when one recording is left out: the reader sees it beside the fitted value
     assert "com_x[box] = 0.003 +- 0.0005 (refits without one recording: -0.001 to 0.004)" in text
     assert "mass[box] = 1 +- 0.1" in text and text.count("refits") == 1  # a parameter held fixed has no range
+
+
+def test_every_effect_is_fitted_with_the_contact_held_where_the_friction_model_put_it(planar_world, odb):
+    """With the contact among the ordinary parameters, the friction pairs stay free beside an effect and lead its
+    space; the contact's stiffness and damping are held at the friction model's fit, so no effect takes part of
+    the contact into its explanation (and the database's contact is the default: no contact parameter)."""
+    assert [p.kind.name for p in _friction_parameters(planar_world, odb, "block")] == \
+        ["sliding_friction", "robot_friction"]
+    params = _friction_parameters(planar_world, odb, "block", contact=True)
+    assert [p.kind.name for p in params] == ["sliding_friction", "robot_friction", "hydroelastic_modulus",
+                                             "dissipation"]
+    fitted = {params[0].name: 0.31, params[1].name: 0.8, params[2].name: 2.5e7, params[3].name: 0.4}
+    held = _held_contact(params, fitted)
+    assert [p.free for p in held] == [True, True, False, False]
+    assert [p.value for p in held[2:]] == [2.5e7, 0.4]
+    space = _space(held, get_effect("com_offset"), "block", planar_world, odb)
+    assert list(space.free[:2]) == held[:2] and all(not p.kind.contact_model for p in space.free)
+    assert {s.name: s.value for s in space.model(space.from_normal(np.zeros(space.dim)))
+            if s.kind in ("hydroelastic_modulus", "dissipation")} == {params[2].name: 2.5e7, params[3].name: 0.4}

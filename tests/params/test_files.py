@@ -49,6 +49,10 @@ def test_unit_box_and_normal_coordinates_round_trip(tmp_path):
     np.testing.assert_allclose(spec.from_normal(spec.to_normal(values)), values)
     np.testing.assert_allclose(spec.to_normal(spec.start_values()), 0.0)  # the start is the origin
     assert spec.steps[0] == pytest.approx(0.9 / 20)  # a file's entry: a twentieth of its bounds per unit
+    # a point on a bound (or a rounding error past it) comes back within the bounds, never past them
+    lower, upper = spec.normal_bounds()
+    assert np.all(spec.from_normal(lower - 1e-12) >= [p.bounds[0] for p in spec.free])
+    assert np.all(spec.from_normal(upper + 1e-12) <= [p.bounds[1] for p in spec.free])
 
 
 @pytest.mark.parametrize("text, field, words", [
