@@ -27,6 +27,18 @@ from bridge.values import Pose
 ROD = "pusher/pusher_rod"
 
 
+def _recorded(trials, truth, odb) -> list:
+    """`trials` as recorded in a world with `truth`: the block's replayed track, with the proof's pose noise."""
+    rng = np.random.default_rng(0)
+    observed = []
+    for trial in trials:
+        end = float(trial.observations.tracks[0].times[-1])
+        result = run_rollout(trial_rollout(trial, truth, odb), odb, SimOptions(sample_rate=100.0, end=end))
+        track = noisy_track("block", result.times, result.tracks["block"], rng, (NOISE_POSITION, NOISE_ROTATION))
+        observed.append(type(trial)(**{**vars(trial), "observations": ObservedPoses((track,))}))
+    return observed
+
+
 def test_pair_coefficients_are_realised_exactly_and_independently(planar_world, odb):
     """Each pair gets the value asked, the other stays; a sliding pair above twice the block's own coefficient
     (out of reach of the surface's coefficient alone) raises the block's and keeps the rod's pair."""
@@ -70,13 +82,7 @@ def test_a_slippery_rod_on_a_gripping_surface_is_fitted_as_its_two_pairs(odb, tm
     trials = load_trials(paths, odb)
     world = trials[0].world
     truth = (Setting("friction", ROD, 0.05), Setting("friction", "surface", 1.2))
-    rng = np.random.default_rng(0)
-    observed = []
-    for trial in trials:
-        end = float(trial.observations.tracks[0].times[-1])
-        result = run_rollout(trial_rollout(trial, truth, odb), odb, SimOptions(sample_rate=100.0, end=end))
-        track = noisy_track("block", result.times, result.tracks["block"], rng, (NOISE_POSITION, NOISE_ROTATION))
-        observed.append(type(trial)(**{**vars(trial), "observations": ObservedPoses((track,))}))
+    observed = _recorded(trials, truth, odb)
     r0 = odb.get("planar_pusher").robot.link_friction[0][1]
     b0 = odb.get(world.objects["block"].type).physics.mu_dynamic
     true_sliding, true_rod = combined_friction(b0, 1.2), combined_friction(b0, 0.05)
@@ -107,13 +113,7 @@ def test_a_stiffer_contact_is_taken_up_by_the_ordinary_model_with_its_contact_pa
     world = trials[0].world
     stiffness = odb.get(world.objects["block"].type).physics.hydroelastic_modulus
     truth = (Setting("hydroelastic_modulus", "block", 3.0 * stiffness), Setting("dissipation", "block", 0.3))
-    rng = np.random.default_rng(0)
-    observed = []
-    for trial in trials:
-        end = float(trial.observations.tracks[0].times[-1])
-        result = run_rollout(trial_rollout(trial, truth, odb), odb, SimOptions(sample_rate=100.0, end=end))
-        track = noisy_track("block", result.times, result.tracks["block"], rng, (NOISE_POSITION, NOISE_ROTATION))
-        observed.append(type(trial)(**{**vars(trial), "observations": ObservedPoses((track,))}))
+    observed = _recorded(trials, truth, odb)
     with make_executor("serial", odb) as executor:
         runner = Runner([prepare(t, odb, 25.0) for t in observed], odb, executor)
         ev = Evaluator(runner, [0, 1])
