@@ -12,7 +12,8 @@ frictions were moved) on clean worlds >= 90 %, held-out error down >= 60 % when 
 those cases, of the residual above the noise floor), diagnosing 8 recordings <= 5 min on 2 cores.
 
     python benchmarks/prove_benchmark.py [--world matched|mismatched|both] [--out DIR] [--workers 2]
-                                         [--only SCENE] [--limit N] [--resume|--summarise]
+                                         [--only SCENE] [--limit N] [--cases A,B] [--fit-contact]
+                                         [--resume|--summarise]
 
 The figures cover every case in OUT/progress.json (so a run resumed after an interruption counts them all).
 """
@@ -25,8 +26,7 @@ import time
 from pathlib import Path
 
 from bridge.odb import load_object_database
-from bridge.prove.proof import SETTINGS, WORLDS, proof_cases, proof_json, proof_text, run_case, summaries
-from bridge.rollout import make_executor
+from bridge.prove.proof import SETTINGS, WORLDS, proof_cases, proof_json, proof_text, run_cases, summaries
 
 REPO = Path(__file__).resolve().parents[1]
 TARGETS = {"verdict_right": 0.9, "none_on_clean": 0.9, "held_out_excess_reduction_when_right_median": 0.6,
@@ -56,25 +56,24 @@ def main() -> None:
     started = time.perf_counter()
     if not args.summarise:
         odb = load_object_database()
-        done = {r["case"] for r in rows}
         cases = [c for c in proof_cases("full", world=args.world) if args.only is None or c.scene == args.only]
-        if args.cases:
-            named = set(args.cases.split(","))
-            cases = [c for c in cases if c.name in named]
+        if args.cases:  # in the order named
+            by_name = {c.name: c for c in cases}
+            unknown = [n for n in args.cases.split(",") if n not in by_name]
+            if unknown:
+                raise SystemExit(f"--cases: no case {', '.join(unknown)} in the {args.world} proof"
+                                 + (f" of {args.only}" if args.only else "") + "; names as in progress.json's \"case\"")
+            cases = [by_name[n] for n in args.cases.split(",")]
         cases = cases[:args.limit] if args.limit is not None else cases
         settings = SETTINGS["full"]
         if args.fit_contact:
             settings = dataclasses.replace(settings, options=dataclasses.replace(settings.options, contact=True))
-        for k, case in enumerate(cases):
-            if case.name in done:
-                continue
-            # workers of their own per case: kept for the whole proof, each grew to 12 GB after some 40 cases and
-            # the machine (24 GB) stalled; starting two takes a few seconds of a case's minutes
-            with make_executor("serial" if args.workers == 1 else "process", odb, workers=args.workers) as executor:
-                r = run_case(case, odb, out / case.name, settings, executor=executor)
+        done = {r["case"] for r in rows}
+        todo = [c for c in cases if c.name not in done]
+        for k, r in enumerate(run_cases(todo, odb, out, settings, workers=args.workers)):
             rows.append(r.to_json())
             progress_path.write_text(json.dumps(rows, indent=1))
-            print(f"[{k + 1}/{len(cases)}] {case.name}: {r.verdict} ({r.recovery.text}) {r.seconds:.0f} s", flush=True)
+            print(f"[{k + 1}/{len(todo)}] {r.case.name}: {r.verdict} ({r.recovery.text}) {r.seconds:.0f} s", flush=True)
     text = proof_text(rows)
     print(text)
     seconds = time.perf_counter() - started

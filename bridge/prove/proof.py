@@ -16,7 +16,7 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -329,6 +329,19 @@ def run_case(case: Case, odb: ObjectDatabase, folder: Path, settings: ProofSetti
                       ident.simulations, e.get("held_out_excess_reduction"))
 
 
+def run_cases(cases: Sequence[Case], odb: ObjectDatabase, out: Path, settings: ProofSettings, *,
+              workers: int | None = None) -> Iterator[CaseResult]:
+    """Each case run in turn (`run_case`, folder `out/<case name>`), yielded as it ends: a caller that stops
+    iterating starts no further case."""
+    n = workers or default_workers()
+    for case in cases:
+        # workers of their own per case: a pool kept for the whole full proof grew to 12 GB a worker after some 40
+        # cases (docs/diagnosis.md, section 6); starting one costs seconds of a case's minutes
+        with make_executor("serial" if n == 1 else "process", odb, workers=n) as executor:
+            result = run_case(case, odb, out / case.name, settings, executor=executor)
+        yield result
+
+
 def run_proof(out: str | Path, odb: ObjectDatabase, *, size: str = "small", world: str = "both",
               cases: Sequence[Case] | None = None, workers: int | None = None, log: Callable[[str], None] | None = None,
               progress: Callable[[int, int], None] | None = None, time_limit: float | None = None) -> ProofResult:
@@ -345,25 +358,20 @@ def run_proof(out: str | Path, odb: ObjectDatabase, *, size: str = "small", worl
     limit = TimeLimit(time_limit)
     stopped = False
     results = []
-    n = workers or default_workers()
-    for k, case in enumerate(cases):
-        if k > 0 and limit.expired():
-            stopped = True
-            if log:
-                log(f"{limit.text()} reached: stopping after {k} of {len(cases)} case(s)")
-            break
-        # workers of their own per case: a pool kept for the whole full proof grew to 12 GB a worker after some 40
-        # cases (docs/diagnosis.md, section 6); starting one costs seconds of a case's minutes
-        with make_executor("serial" if n == 1 else "process", odb, workers=n) as executor:
-            result = run_case(case, odb, out / case.name, settings, executor=executor)
+    for k, result in enumerate(run_cases(cases, odb, out, settings, workers=workers)):
         results.append(result)
         if log:
-            log(f"[{k + 1}/{len(cases)}] {case.name}: verdict {result.verdict} (target ok {result.target_ok}, "
+            log(f"[{k + 1}/{len(cases)}] {result.case.name}: verdict {result.verdict} (target ok {result.target_ok}, "
                 f"params {result.recovery.text}), {result.seconds:.0f} s")
         if progress is not None:
             progress(k + 1, len(cases))
         partial = ProofResult(size, tuple(results), time.perf_counter() - started, len(cases), limit.to_json(False))
         write_atomic(out / "proof.json", json.dumps(partial.to_json(), indent=2) + "\n")
+        if k + 1 < len(cases) and limit.expired():
+            stopped = True
+            if log:
+                log(f"{limit.text()} reached: stopping after {k + 1} of {len(cases)} case(s)")
+            break
     proof = ProofResult(size, tuple(results), time.perf_counter() - started, len(cases),
                         limit.to_json(stopped))
     title = "# Proof: concealed effects diagnosed blind" + (" (partial)" if stopped else "")
