@@ -15,10 +15,10 @@ from bridge.prove.scenes import Case
 from bridge.rollout import load_trials, make_executor
 
 
-def diagnose(case: Case, effects: tuple[str, ...], odb, tmp_path):
+def diagnose(case: Case, effects: tuple[str, ...], odb, tmp_path, contact: bool = False):
     """The case's 3 generated recordings diagnosed (1 held out) with the catalog restricted to `effects`."""
     paths, truth = generate_case(case, odb, tmp_path / "case", 3)
-    options = Options(effects=effects, max_full_fits=2, max_iterations=4)
+    options = Options(effects=effects, max_full_fits=2, max_iterations=4, contact=contact)
     with make_executor("serial", odb) as executor:
         run = run_diagnosis(load_trials(paths, odb), odb, tmp_path / "diag", held_out=1, executor=executor,
                             options=options, plots=False)
@@ -31,13 +31,29 @@ def test_a_block_resting_on_a_small_disc_is_named_pressure_distribution(odb, tmp
     truth, ident, held_out = diagnose(Case("planar", "pressure_distribution", "large", 1),
                                       ("com_offset", "pressure_distribution"), odb, tmp_path)
     assert truth.params["support_scale[block]"] == 0.5
-    assert ident.verdict == "pressure_distribution", [(s.effect, s.rms) for s in ident.scored]
+    assert ident.verdict == "pressure_distribution", [(s.effect, s.rms) for s in ident.ranked]
     assert 0.35 <= ident.winner.params["support_scale[block]"] <= 0.75  # concentrated towards the centre
     assert held_out < 0.5  # and it predicts the push it did not see
     # the force and the twist read the footprint too, and are set against the verdict's, not the uniform model's
     assert ident.support is not None and ident.support.scale < 0.85
     assert ident.support.fitted == ident.winner.params["support_scale[block]"] and not ident.support.contradicts
     assert not any("torsional friction" in n for n in ident.notes)  # said once, in the evidence
+
+
+@pytest.mark.slow
+def test_with_the_contact_fitted_the_small_disc_is_fitted_at_the_database_contact(odb, tmp_path):
+    """The friction model's contact takes up part of the disc (a softer, less damped contact turns the block
+    more too); held there, the footprint fitted to twice the noise and `com_offset` won. Each effect is screened
+    at the contact that fits it better: the database's here, and the verdict and the held-out push are as without
+    the contact fitted (`identify`, step 3)."""
+    truth, ident, held_out = diagnose(Case("planar", "pressure_distribution", "large", 1),
+                                      ("com_offset", "pressure_distribution"), odb, tmp_path, contact=True)
+    database = odb.get("steel_block").physics.hydroelastic_modulus
+    floor = next(s for s in ident.ranked if s.effect == "friction")
+    assert floor.params["hydroelastic_modulus[block]"] < 0.8 * database  # the premise: the friction model softened it
+    assert ident.verdict == "pressure_distribution", [(s.effect, s.rms) for s in ident.ranked]
+    assert {st.name: st.value for st in ident.winner.model}["hydroelastic_modulus[block]"] == database
+    assert 0.35 <= ident.winner.params["support_scale[block]"] <= 0.75 and held_out < 0.5
 
 
 @pytest.mark.slow
