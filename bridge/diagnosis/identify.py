@@ -369,9 +369,8 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                 x, chi2 = y, c2
         screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x)),
                                   database_contact=ordinary is database_friction))
-        say(f"screen {c.effect} ({c.target}"
-            + (", the database's contact" if ordinary is database_friction and ordinary is not effect_friction
-               else "") + f"): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f} "
+        say(f"screen {c.effect} ({c.target}" + (", the database's contact" if ordinary is database_friction else "")
+            + f"): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f} "
             f"[{runner.simulations} simulations]")
         advance()
 
@@ -504,10 +503,11 @@ def _held_contact(friction: Sequence[Parameter], fitted: dict[str, float]) -> li
     stiffness and damping (`Options.contact`) held where the friction model put them. Left free beside an effect
     they take part of it into the contact: in the matched proof's half-plane patch the damping ran to 3 s/m (the
     world's 1) and the patch ended short of where the real one goes on (its held-out push 10 % worse than
-    `none`); held, the patch predicts it 39 % better. `fitted` the database's values holds them there: each effect
-    is screened at whichever of the two fits its best screened point better (step 3), since the friction model's
-    contact takes up part of an effect where it can (the matched block on a small disc: the friction model softened
-    the contact to 0.28 times the database's, and the footprint held there lost to `com_offset`)."""
+    `none`); held, the patch predicts it 39 % better. Given the database's values instead, it holds them there:
+    each effect is screened at whichever of the two fits its best screened point better (step 3), since the
+    friction model's contact takes up part of an effect where it can (the matched block on a small disc: the
+    friction model softened the contact to 0.28 times the database's, and the footprint held there lost to
+    `com_offset`)."""
     return [replace(p, value=fitted[p.name]) if p.kind.contact_model else p for p in friction]
 
 

@@ -15,6 +15,10 @@ from bridge.prove.scenes import Case
 from bridge.rollout import load_trials, make_executor
 
 
+DISC = Case("planar", "pressure_distribution", "large", 1)  # the block resting on a small disc
+DISC_EFFECTS = ("com_offset", "pressure_distribution")  # an off-centre weight turns some pushes more too
+
+
 def diagnose(case: Case, effects: tuple[str, ...], odb, tmp_path, contact: bool = False):
     """The case's 3 generated recordings diagnosed (1 held out) with the catalog restricted to `effects`."""
     paths, truth = generate_case(case, odb, tmp_path / "case", 3)
@@ -28,8 +32,7 @@ def diagnose(case: Case, effects: tuple[str, ...], odb, tmp_path, contact: bool 
 
 @pytest.mark.slow
 def test_a_block_resting_on_a_small_disc_is_named_pressure_distribution(odb, tmp_path):
-    truth, ident, held_out = diagnose(Case("planar", "pressure_distribution", "large", 1),
-                                      ("com_offset", "pressure_distribution"), odb, tmp_path)
+    truth, ident, held_out = diagnose(DISC, DISC_EFFECTS, odb, tmp_path)
     assert truth.params["support_scale[block]"] == 0.5
     assert ident.verdict == "pressure_distribution", [(s.effect, s.rms) for s in ident.ranked]
     assert 0.35 <= ident.winner.params["support_scale[block]"] <= 0.75  # concentrated towards the centre
@@ -42,12 +45,11 @@ def test_a_block_resting_on_a_small_disc_is_named_pressure_distribution(odb, tmp
 
 @pytest.mark.slow
 def test_with_the_contact_fitted_the_small_disc_is_fitted_at_the_database_contact(odb, tmp_path):
-    """The friction model's contact takes up part of the disc (a softer, less damped contact turns the block
-    more too); held there, the footprint fitted to twice the noise and `com_offset` won. Each effect is screened
+    """The friction model's contact takes up part of the disc (it softens the contact to 0.28 times the
+    database's); held there, the footprint fitted to twice the noise and `com_offset` won. Each effect is screened
     at the contact that fits it better: the database's here, and the verdict and the held-out push are as without
     the contact fitted (`identify`, step 3)."""
-    truth, ident, held_out = diagnose(Case("planar", "pressure_distribution", "large", 1),
-                                      ("com_offset", "pressure_distribution"), odb, tmp_path, contact=True)
+    truth, ident, held_out = diagnose(DISC, DISC_EFFECTS, odb, tmp_path, contact=True)
     database = odb.get("steel_block").physics.hydroelastic_modulus
     floor = next(s for s in ident.ranked if s.effect == "friction")
     assert floor.params["hydroelastic_modulus[block]"] < 0.8 * database  # the premise: the friction model softened it
