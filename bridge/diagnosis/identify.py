@@ -16,8 +16,9 @@ Recipe (`identify`):
 5. cross-validate (`crossval`): every model worth its parameters predicts each recording it was not fitted on;
 6. the verdict: the effect that predicts best among those that remove at least CV_GAIN of what the ordinary model
    leaves (a geometric mean over the recordings) and agree with the evidence;
-   else the ordinary model (`friction`, or `none`). Report winner, runner-up, margin, parameters and their
-   uncertainty (curvature).
+   else the ordinary model (`friction`, or `none`); with the contact fitted (`Options.contact`), the verdict's
+   effect is refitted at the contact it was not screened at (the database's or the friction model's) and kept at
+   whichever predicts better. Report winner, runner-up, margin, parameters and their uncertainty (curvature).
 """
 from __future__ import annotations
 
@@ -396,12 +397,9 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                        held, effect.fit_region(c.start, c.target))
         # start from the screened point, or from the fitted friction with the screened effect if that is better
         starts = [space.to_normal(c.start), space.to_normal({**c.start, **base_fit.values()})]
-        chis = [ev.chi2(_model(space, x)) for x in starts]
-        result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations,
-                     optimizer=options.optimizer, should_stop=limit.expired)
+        result, scored = _fit_effect(runner, ev, space, starts, c.effect, c.target, held_out, options, limit,
+                                     _all_measured(c, world, odb, measured))
         fits[(c.effect, c.target)] = result
-        scored = _from_fit(c.effect, c.target, result, world, odb, _all_measured(c, world, odb, measured))
-        scored = _held_out(runner, held_out, [scored])[0]
         frictions = {s.name: s.value for s in scored.model if s.effect == "friction"}
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
@@ -436,6 +434,34 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     scored = [_with_uncertainty(s, fits[_fit_key(s)], tau) if _fit_key(s) in fits else s for s in scored]
     say(f"cross-validated {sum(s.cv is not None for s in scored)} model(s) [{runner.simulations} simulations]")
     verdict, check, floor = _verdict(scored, world, odb)
+    winner = next(s for s in scored if s.effect == verdict)
+    other = _other_contact(fits[_fit_key(winner)].space, friction_params, base_fit.values()) \
+        if verdict not in ("none", "friction") and winner.cv is not None and floor.cv is not None else None
+    if other is not None and not limit.expired():
+        # 6. the verdict's effect refitted at the other contact, the database's or the friction model's, and kept
+        #    at whichever predicts the recordings it was not fitted on better: step 3 chose by the fit alone
+        contact, at_database = other
+        effect = get_effect(verdict)
+        start = next(c.start for c in screened if (c.effect, c.target) == (verdict, winner.target))
+        space = _space(contact, effect, winner.target, world, odb, held, effect.fit_region(start, winner.target))
+        result, variant = _fit_effect(runner, ev, space, [space.to_normal(fits[_fit_key(winner)].values())],
+                                      verdict, winner.target, held_out, options, limit, winner.measured)
+        variant = _score([next(s for s in scored if s.effect == "none"),
+                          _checked_against(variant, loader, frame, world, odb)], tau)
+        variant, refitted = _validated(runner, ev, next(s for s in variant if s.effect == verdict),
+                                       {**fits, _fit_key(winner): result}, loc)
+        better = variant.cv.compare(floor.cv) > winner.cv.compare(floor.cv)
+        say(f"{verdict} refitted at {'the database' if at_database else 'the friction model'}'s contact: "
+            f"{_fmt(variant.params)}, rms {variant.rms:.1f}; on recordings it was not fitted on it removes "
+            f"{100 * variant.cv.compare(floor.cv):.0f} % of what {floor.effect} leaves "
+            f"({100 * winner.cv.compare(floor.cv):.0f} % at the other): "
+            + ("taken" if better else "kept at the other") + f" [{runner.simulations} simulations]")
+        if better:
+            notes.append(f"{verdict} is fitted at {'the database' if at_database else 'the friction model'}'s "
+                         "contact, which predicts the recordings it was not fitted on better")
+            fits = refitted
+            scored = [_with_uncertainty(variant, fits[_fit_key(variant)], tau) if s is winner else s for s in scored]
+            verdict, check, floor = _verdict(scored, world, odb)
     if check:
         notes.append(check)
     stability = _stability(scored, verdict, world, odb)
@@ -459,6 +485,33 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
                           held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame,
                           work, stability, rod, _against_verdict(support, scored, verdict, focus[0]))
+
+
+def _fit_effect(runner: Runner, ev: Evaluator, space: ParameterSet, starts: Sequence[np.ndarray], effect: str,
+                target: str, held_out: Sequence[int], options: Options, limit: TimeLimit, measured: bool
+                ) -> tuple[FitResult, Scored]:
+    """An effect fitted fully from the best of `starts`, with its predictions of the held-out recordings."""
+    world, odb = runner.prepared[ev.indices[0]].world, runner.odb
+    chis = [ev.chi2(_model(space, x)) for x in starts]
+    result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations,
+                 optimizer=options.optimizer, should_stop=limit.expired)
+    return result, _held_out(runner, held_out, [_from_fit(effect, target, result, world, odb, measured)])[0]
+
+
+def _other_contact(fitted: ParameterSet, friction: Sequence[Parameter], model: dict[str, float]
+                   ) -> tuple[list[Parameter], bool] | None:
+    """The ordinary parameters held at the contact `fitted` was not held at (`Options.contact`), and whether that
+    is the database's: the database's where `fitted` held the friction model's (`model`: its fitted values), else
+    the friction model's. None without a contact among them, or where the two are one."""
+    held = {p.name: float(p.value) for p in fitted.entries if p.kind.contact_model and not p.free}
+    database = {p.name: float(p.start) for p in friction if p.kind.contact_model}
+    if not database or set(held) != set(database):
+        return None
+    at_database = all(math.isclose(held[k], v) for k, v in database.items())
+    other = {k: float(model[k]) for k in database} if at_database else database
+    if all(math.isclose(held[k], v) for k, v in other.items()):
+        return None
+    return _held_contact(friction, other), not at_database
 
 
 def _fit_key(s: Scored) -> tuple[str, str | None]:
@@ -990,9 +1043,10 @@ def _weight_note(winner: Scored, loc: Localisation, world, odb) -> str | None:
 def _unexplained(winner: Scored, loc: Localisation) -> str | None:
     """What the report says when the chosen model still predicts recordings it was not fitted on far above the
     noise (UNEXPLAINED noise floors): the world differs from every model tried, and the verdict is the effect
-    that predicts best, not a complete explanation. When the nominal residual starts at the first contact in most recordings, the
-    object model (its outline, size, the frame the recording tracks) is named first: physics left out acts once
-    the object moves (a patch, a post, a tilt), an object model error from the moment the rod meets the outline."""
+    that predicts best, not a complete explanation. When the nominal residual starts at the first contact in most
+    recordings, the object model (its outline, size, the frame the recording tracks) is named first: physics left
+    out acts once the object moves (a patch, a post, a tilt), an object model error from the moment the rod meets
+    the outline."""
     if winner.cv is None or not winner.cv.n:
         return None
     rms = math.sqrt(winner.cv.chi2 / winner.cv.n)
@@ -1030,26 +1084,13 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
     without it. The floor is known once `friction` is: it is `friction` if that is accepted over `none`. Nothing is
     cross-validated with a single recording. Returns the models with `cv` and the fits (those cross-validated with
     their Jacobian differenced at the optimum, reused for the uncertainty)."""
-    from dataclasses import replace
-
     if len(ev.indices) + len(held_names) < 2:
         return scored, fits
-    loo = len(ev.indices) > 1
 
     def validated(s: Scored) -> Scored:
         nonlocal fits
-        if s.effect == "none":
-            runs = list(loc.runs) if loo else []
-            params, fitted = [{}] * len(runs), {}
-        else:
-            key = ("friction", None) if s.effect == "friction" else (s.effect, s.target)
-            fit_result, runs, params = predict_left_out(runner, ev, fits[key]) if loo else (fits[key], [], [])
-            fits, fitted = {**fits, key: fit_result}, fit_result.values()
-
-        def own(values: dict[str, float]) -> dict[str, float]:
-            return {k: v for k, v in values.items() if k in s.params}
-        held = list(s.held_out_runs)  # predicted by the fit on every fitted recording
-        return replace(s, cv=prediction(list(runs) + held, [own(p) for p in params] + [own(fitted)] * len(held)))
+        s, fits = _validated(runner, ev, s, fits, loc)
+        return s
 
     by = {s.effect: s for s in scored if s.effect in ("none", "friction")}
     none = validated(by["none"])
@@ -1069,3 +1110,21 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
         else:
             out.append(s)
     return out, fits
+
+
+def _validated(runner: Runner, ev: Evaluator, s: Scored, fits: dict, loc: Localisation) -> tuple[Scored, dict]:
+    """`s` with `cv`: each fitted recording predicted by the fit without it, each held-out one by the fit; and the
+    fits with `s`'s Jacobian differenced at its optimum."""
+    loo = len(ev.indices) > 1
+    if s.effect == "none":
+        runs = list(loc.runs) if loo else []
+        params, fitted = [{}] * len(runs), {}
+    else:
+        key = _fit_key(s)
+        fit_result, runs, params = predict_left_out(runner, ev, fits[key]) if loo else (fits[key], [], [])
+        fits, fitted = {**fits, key: fit_result}, fit_result.values()
+
+    def own(values: dict[str, float]) -> dict[str, float]:
+        return {k: v for k, v in values.items() if k in s.params}
+    held = list(s.held_out_runs)  # predicted by the fit on every fitted recording
+    return replace(s, cv=prediction(list(runs) + held, [own(p) for p in params] + [own(fitted)] * len(held))), fits

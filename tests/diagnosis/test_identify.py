@@ -8,8 +8,8 @@ import pytest
 from bridge.diagnosis.crossval import Prediction
 from bridge.diagnosis.effects import get_effect
 from bridge.diagnosis.identify import (CV_GAIN, Candidate, Scored, _acceptable, _cv_reason, _friction_parameters,
-                                       _friction_starts, _full_fits, _held_contact, _space, _stability, _verdict,
-                                       _with_uncertainty, _work_friction)
+                                       _friction_starts, _full_fits, _held_contact, _other_contact, _space,
+                                       _stability, _verdict, _with_uncertainty, _work_friction)
 from bridge.diagnosis.search import FitResult
 from bridge.diagnosis.work import AGREES, WorkFit
 from bridge.params import KINDS, Parameter, ParameterSet
@@ -194,7 +194,8 @@ def test_a_weight_or_coefficient_verdict_says_the_pushes_measure_only_their_prod
     mu0 = odb.get(planar_world.objects["block"].type).physics.friction
 
     def verdict(effect, params):
-        return Scored(effect, "block", params, {}, get_effect(effect).model(planar_world, odb, "block", params), 1, 0.0, 1)
+        model = get_effect(effect).model(planar_world, odb, "block", params)
+        return Scored(effect, "block", params, {}, model, 1, 0.0, 1)
 
     rough = _weight_note(verdict("friction", {"friction[block]": 2.5 * mu0}), loc, planar_world, odb)
     assert rough is not None and "measure only that product" in rough
@@ -286,3 +287,26 @@ def test_every_effect_is_fitted_with_the_contact_held_where_the_friction_model_p
     assert list(space.free[:2]) == held[:2] and all(not p.kind.contact_model for p in space.free)
     assert {s.name: s.value for s in space.model(space.from_normal(np.zeros(space.dim)))
             if s.kind in ("hydroelastic_modulus", "dissipation")} == {params[2].name: 2.5e7, params[3].name: 0.4}
+
+
+def test_the_verdict_is_refitted_at_the_contact_it_was_not_screened_at(planar_world, odb):
+    """Step 6 of `identify`: an effect screened at the friction model's contact is refitted at the database's and
+    the other way round; nothing is refitted where the friction model left the contact at the database's, or
+    where the contact is not fitted (no contact parameter: the default)."""
+    params = _friction_parameters(planar_world, odb, "block", contact=True)
+    database = {p.name: p.start for p in params}
+    model = {**database, params[2].name: 0.3 * params[2].start, params[3].name: 2.0 * params[3].start}
+    effect = get_effect("com_offset")
+
+    def held_at(values):
+        return _space(_held_contact(params, values), effect, "block", planar_world, odb)
+
+    def contact(space):
+        return {p.name: p.value for p in space if p.kind.contact_model}
+    other, at_database = _other_contact(held_at(model), params, model)
+    assert at_database and contact(other) == {k: database[k] for k in (params[2].name, params[3].name)}
+    other, at_database = _other_contact(held_at(database), params, model)
+    assert not at_database and contact(other) == {k: model[k] for k in (params[2].name, params[3].name)}
+    assert _other_contact(held_at(database), params, database) is None
+    plain = _friction_parameters(planar_world, odb, "block")
+    assert _other_contact(_space(plain, effect, "block", planar_world, odb), plain, database) is None
