@@ -450,12 +450,15 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                           _checked_against(variant, loader, frame, world, odb)], tau)
         variant, refitted = _validated(runner, ev, next(s for s in variant if s.effect == verdict),
                                        {**fits, _fit_key(winner): result}, loc)
-        better = variant.cv.compare(floor.cv) > winner.cv.compare(floor.cv)
+        accepted = _acceptable(variant, next(s for s in scored if s.effect == "none"),
+                               floor if floor.effect == "friction" else None, world, odb) is None
+        better = accepted and variant.cv.compare(floor.cv) > winner.cv.compare(floor.cv)
         say(f"{verdict} refitted at {'the database' if at_database else 'the friction model'}'s contact: "
             f"{_fmt(variant.params)}, rms {variant.rms:.1f}; on recordings it was not fitted on it removes "
             f"{100 * variant.cv.compare(floor.cv):.0f} % of what {floor.effect} leaves "
             f"({100 * winner.cv.compare(floor.cv):.0f} % at the other): "
-            + ("taken" if better else "kept at the other") + f" [{runner.simulations} simulations]")
+            + ("taken" if better else "kept at the other" + ("" if accepted else " (not accepted there)"))
+            + f" [{runner.simulations} simulations]")
         if better:
             notes.append(f"{verdict} is fitted at {'the database' if at_database else 'the friction model'}'s "
                          "contact, which predicts the recordings it was not fitted on better")
