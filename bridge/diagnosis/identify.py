@@ -446,12 +446,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         space = _space(contact, effect, winner.target, world, odb, held, effect.fit_region(start, winner.target))
         result, variant = _fit_effect(runner, ev, space, [space.to_normal(fits[_fit_key(winner)].values())],
                                       verdict, winner.target, held_out, options, limit, winner.measured)
-        variant = _score([next(s for s in scored if s.effect == "none"),
-                          _checked_against(variant, loader, frame, world, odb)], tau)
+        none = next(s for s in scored if s.effect == "none")
+        variant = _score([none, _checked_against(variant, loader, frame, world, odb)], tau)
         variant, refitted = _validated(runner, ev, next(s for s in variant if s.effect == verdict),
                                        {**fits, _fit_key(winner): result}, loc)
-        accepted = _acceptable(variant, next(s for s in scored if s.effect == "none"),
-                               floor if floor.effect == "friction" else None, world, odb) is None
+        accepted = _acceptable(variant, none, floor if floor.effect == "friction" else None, world, odb) is None
         better = accepted and variant.cv.compare(floor.cv) > winner.cv.compare(floor.cv)
         say(f"{verdict} refitted at {'the database' if at_database else 'the friction model'}'s contact: "
             f"{_fmt(variant.params)}, rms {variant.rms:.1f}; on recordings it was not fitted on it removes "
