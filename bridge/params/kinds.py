@@ -51,6 +51,9 @@ ANY = PhysicalRange(-math.inf, math.inf, why="any finite number")
 MASS_RATIO = 100.0  # a mass more than this many times the object database's (or less than its share) is another object
 FORCE_WEIGHTS = 10.0  # a constant hidden force above this many times the object's weight throws it off the table
 LATENCY_SHARE = 0.5  # a latency shifts this share of the telemetry out of the replay at most
+# a friction coefficient (or the factor on a robot's pairs) within this share of the object database's changes nothing
+# a user would act on: repeated measurements of one material pair scatter by more (as 5 % of mass, `Mass.negligible`)
+NEGLIGIBLE_FRICTION = 0.05
 
 
 class Kind:
@@ -190,6 +193,9 @@ class Friction(_ObjectField):
 
     def step(self, world, odb, target):
         return 0.3 * (self.null(world, odb, target) or 0.5)
+
+    def negligible(self, world, odb, target):
+        return NEGLIGIBLE_FRICTION * (self.null(world, odb, target) or 0.5)
 
 
 class DynamicFriction(Friction):
@@ -562,6 +568,9 @@ class SlidingFriction(_PairMember):
     def step(self, world, odb, target):
         return 0.3 * self.null(world, odb, target)
 
+    def negligible(self, world, odb, target):
+        return NEGLIGIBLE_FRICTION * self.null(world, odb, target)
+
 
 class RobotFriction(_PairMember):
     name, component = "robot_friction", "robot"
@@ -578,6 +587,9 @@ class RobotFriction(_PairMember):
 
     def step(self, world, odb, target):
         return 0.3
+
+    def negligible(self, world, odb, target):
+        return NEGLIGIBLE_FRICTION
 
 
 def tilted_poses(world: WorldState, odb: ObjectDatabase, surface: str, slope_x: float, slope_y: float,

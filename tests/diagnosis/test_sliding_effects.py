@@ -66,9 +66,9 @@ def test_with_the_contact_fitted_the_verdict_is_kept_at_the_contact_that_predict
     """A mismatched world (its contact 1.3 times as stiff as the database's, 4 times as damped; the servo, the
     frictions and the sensors differ too) whose block rests on 0.8 of its footprint. The friction model softens
     the contact to 0.17 times the database's, and the footprint fits its pushes better there than at the
-    database's (`identify` step 3), but predicts the pushes it was not fitted on worse. Refitted at the other
-    contact (step 6), it is kept at the database's, and the held-out push is predicted better than at the
-    contact the fit chose."""
+    database's (`identify` step 3), but predicts the pushes it was not fitted on worse. Refitted at the database's
+    contact (step 6), it is kept there, and the held-out push is predicted better than at the contact the fit
+    chose."""
     import bridge.diagnosis.identify as identify
 
     case = Case("mit_steel_block", "pressure_distribution", "small", 2, "mismatched")
@@ -80,9 +80,9 @@ def test_with_the_contact_fitted_the_verdict_is_kept_at_the_contact_that_predict
     assert floor.params["hydroelastic_modulus[steel_block]"] < 0.5 * database  # the premise: softened
     assert ident.verdict == "pressure_distribution", [(s.effect, s.rms) for s in ident.ranked]
     assert {st.name: st.value for st in ident.winner.model}["hydroelastic_modulus[steel_block]"] == database
-    assert any("at the database's contact, which predicts" in n for n in ident.notes), ident.notes
+    assert any("is fitted at the database's contact" in n for n in ident.notes), ident.notes
     assert ident.winner.params["support_scale[steel_block]"] < 1.0  # resting on less than its footprint
-    monkeypatch.setattr(identify, "_other_contact", lambda *args: None)  # the fit's choice of step 3 alone
+    monkeypatch.setattr(identify, "_database_contact", lambda *args: None)  # the fit's choice of step 3 alone
     _, chosen, held_out_chosen = diagnose(case, effects, odb, tmp_path, contact=True, recordings=4, out="chosen")
     assert {st.name: st.value for st in chosen.winner.model}["hydroelastic_modulus[steel_block]"] < 0.5 * database
     assert held_out < held_out_chosen
