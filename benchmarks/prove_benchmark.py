@@ -12,7 +12,7 @@ frictions were moved) on clean worlds >= 90 %, held-out error down >= 60 % when 
 those cases, of the residual above the noise floor), diagnosing 8 recordings <= 5 min on 2 cores.
 
     python benchmarks/prove_benchmark.py [--world matched|mismatched|both] [--out DIR] [--workers 2]
-                                         [--only SCENE] [--limit N] [--cases A,B] [--fit-contact]
+                                         [--only SCENE] [--limit N] [--cases A,B] [--no-fit-contact]
                                          [--resume|--summarise]
 
 The figures cover every case in OUT/progress.json (so a run resumed after an interruption counts them all).
@@ -42,9 +42,10 @@ def main() -> None:
                         "mit_<shape>)")
     parser.add_argument("--limit", type=int, default=None, help="at most N cases (in the proof's order)")
     parser.add_argument("--cases", default=None, metavar="A,B", help="only the cases named")
-    parser.add_argument("--fit-contact", action="store_true", help="diagnose with the object's contact stiffness and "
-                        "damping among the ordinary parameters (identify.Options.contact); the figures go to "
-                        "prove_*_fit_contact.json")
+    parser.add_argument("--fit-contact", action=argparse.BooleanOptionalAction, default=True,
+                        help="diagnose with the object's contact stiffness and damping among the ordinary parameters "
+                        "(identify.Options.contact, the default); with --no-fit-contact at the object database's "
+                        "contact, the figures going to prove_*_database_contact.json")
     parser.add_argument("--resume", action="store_true", help="skip cases already in OUT/progress.json")
     parser.add_argument("--summarise", action="store_true",
                         help="run nothing: print and save the figures of the cases in OUT/progress.json")
@@ -66,8 +67,8 @@ def main() -> None:
             cases = [by_name[n] for n in args.cases.split(",")]
         cases = cases[:args.limit] if args.limit is not None else cases
         settings = SETTINGS["full"]
-        if args.fit_contact:
-            settings = dataclasses.replace(settings, options=dataclasses.replace(settings.options, contact=True))
+        options = dataclasses.replace(settings.options, contact=args.fit_contact)
+        settings = dataclasses.replace(settings, options=options)
         done = {r["case"] for r in rows}
         todo = [c for c in cases if c.name not in done]
         for k, r in enumerate(run_cases(todo, odb, out, settings, workers=args.workers)):
@@ -80,8 +81,8 @@ def main() -> None:
     for world, name in (("matched", "prove.json"), ("mismatched", "prove_mismatched.json")):
         chosen = [r for r in rows if r.get("world", "matched") == world]
         if chosen:
-            result_path = REPO / "benchmarks" / "results" / (name.replace(".json", "_fit_contact.json")
-                                                             if args.fit_contact else name)
+            result_path = REPO / "benchmarks" / "results" / (name if args.fit_contact else
+                                                             name.replace(".json", "_database_contact.json"))
             result_path.parent.mkdir(parents=True, exist_ok=True)
             result_path.write_text(json.dumps(proof_json("full", chosen, seconds), indent=2) + "\n")
             print(f"wrote {result_path}")

@@ -228,9 +228,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--own-speed", action="store_true", help="replay every recording at its own speed (default: slow "
                    "recordings are replayed up to 25 mm/s where that changes their nominal replay by at most 1 %% of "
                    "their misfit: quasi-static pushing does not depend on speed)")
-    p.add_argument("--fit-contact", action="store_true", help="fit the object's contact stiffness and damping with "
-                   "the friction coefficients as the ordinary model, so that no effect is credited with a contact the "
-                   "model has wrong (default: the object database's; docs/diagnosis.md section 3)")
+    p.add_argument("--fit-contact", action=argparse.BooleanOptionalAction, default=True,
+                   help="fit the object's contact stiffness and damping with the friction coefficients as the ordinary "
+                   "model, so that no effect is credited with a contact the model has wrong; --no-fit-contact keeps "
+                   "the object database's (default: fitted; docs/diagnosis.md section 3)")
     p = add("prove")
     p.add_argument("--size", choices=("small", "full"), default="small", help="small: one case per effect (CI); "
                    "full: three magnitudes, two seeds (default: %(default)s)")

@@ -82,7 +82,7 @@ class Options:
     max_full_fits: int = MAX_FULL_FITS
     max_iterations: int = 6  # per fit: solver evaluations (lm) or generations (es, cmaes)
     optimizer: str = "lm"  # of the full fits (bridge.optim.NAMES); screening always takes one Gauss-Newton step
-    contact: bool = False  # the object's contact stiffness and damping among the ordinary parameters (`CONTACT`)
+    contact: bool = True  # the object's contact stiffness and damping among the ordinary parameters (`CONTACT`)
 
     def __post_init__(self) -> None:
         """An unknown effect would be ignored, and the diagnosis would answer another question than asked."""

@@ -171,7 +171,7 @@ def diagnose_paths(paths: Sequence[str | Path], odb: ObjectDatabase, out: str | 
                    quiet: bool = False, shape: str | None = None, time_limit: float | None = None,
                    time_step: float | str = "auto", log: Callable[[str], None] | None = None,
                    progress: Callable[[int, int | None], None] | None = None,
-                   quasi_static: bool = True, contact: bool = False) -> DiagnosisRun:
+                   quasi_static: bool = True, contact: bool = True) -> DiagnosisRun:
     """Load recordings (folders, MIT .h5 files, folders of .h5 files; `shape` for .h5 files whose name does not
     tell theirs) and diagnose them. `log` defaults to stderr (nothing when `quiet`); `contact`: the object's
     contact stiffness and damping among the ordinary parameters (`identify.Options.contact`)."""
