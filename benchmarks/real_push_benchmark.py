@@ -19,6 +19,9 @@ push is held out once and scored by what was fitted on the others. Columns:
                replayed once per grid value, then each fold picks the value of least training E)
   drake_an     Drake with the anisotropic_friction effect (bridge/sim/anisotropy.py): anisotropy a along one of
                --aniso-directions grains, chosen on the training folds from a grid (--aniso-grid), as drake_ps
+  drake_rate   Drake with the support's friction falling with the slip speed (the Stribeck curve, rate_drop and
+               rate_speed, bridge/sim/anisotropy.py), chosen on the training folds from a grid (--rate-grid), as
+               drake_ps
   drake_gap    Drake with the rod offset D that the training folds' contact gaps imply (the loader's evidence,
                `bridge.diagnosis.loader.ContactFit`: no simulation, no fit), applied to the held-out push's
                telemetry; D = 0 when the training pushes do not make it evident
@@ -41,6 +44,7 @@ over all pushes; one table; JSON in benchmarks/results/real_push.json.
     python benchmarks/real_push_benchmark.py --drake-fit ellip1    # all shapes, Drake also fitted on ellip1's folds
     python benchmarks/real_push_benchmark.py --support-grid 0.5 0.6 0.7 0.8 0.9 1.1 1.2   # drake_ps
     python benchmarks/real_push_benchmark.py --aniso-grid 0.15 0.3                        # drake_an
+    python benchmarks/real_push_benchmark.py --rate-grid 1,0.02 1,0.05 1,0.1 2,0.05 --merge  # drake_rate
     python benchmarks/real_push_benchmark.py --diagnose --merge    # drake_diag, the other columns kept from the JSON
 """
 from __future__ import annotations
@@ -76,8 +80,8 @@ from bridge.rollout.limit_surface import (fit_pusher_friction, push_residuals, p
 from bridge.rollout.rollout import Job  # noqa: E402
 from bridge.sim.friction import combined_friction  # noqa: E402
 
-COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an", "drake_gap", "drake_cone",
-           "drake_read", "drake_diag")
+COLUMNS = ("drake", "ls", "ls_fit", "ls_fit_c", "drake_fit", "drake_ps", "drake_an", "drake_rate", "drake_gap",
+           "drake_cone", "drake_read", "drake_diag")
 METRICS = ("final_mm", "final_deg", "e_t_mm", "e_R_deg")
 MAX_FOLDS = 5
 ROD = "pusher/pusher_rod"
@@ -102,6 +106,9 @@ def main(argv=None) -> None:
     parser.add_argument("--aniso-grid", nargs="*", type=float, default=None, metavar="A",
                         help="the drake_an column: anisotropies a to try, each along --aniso-directions grains")
     parser.add_argument("--aniso-directions", type=int, default=4, help="grain directions over 180 deg (default 4)")
+    parser.add_argument("--rate-grid", nargs="*", default=None, metavar="DROP,SPEED",
+                        help="the drake_rate column: friction falling with the slip speed, rate_drop,rate_speed (m/s) "
+                        "pairs to try (the flat curve is always tried)")
     parser.add_argument("--diagnose", nargs="*", default=None, metavar="SHAPE",
                         help="the drake_diag column: `bridge diagnose` on each fold's training pushes (slow: minutes "
                              "a fold), on the shapes named, or on all without names")
@@ -144,7 +151,8 @@ def main(argv=None) -> None:
     meta = {"data": "MIT planar pushing, Yu et al. IROS 2016 (arXiv:1604.04038), shared subset train/",
             "mode": "quick" if args.quick else "full", "per_shape": per_shape, "drake_fit": args.drake_fit,
             "drake_fit_iterations": iterations if args.drake_fit is not None else None, "folds": f"min({MAX_FOLDS}, n)",
-            "support_grid": args.support_grid, "aniso_grid": args.aniso_grid, "diagnose": args.diagnose,
+            "support_grid": args.support_grid, "aniso_grid": args.aniso_grid, "rate_grid": args.rate_grid,
+            "diagnose": args.diagnose,
             "machine": platform.platform(), "total_s": round(time.perf_counter() - started, 1)}
     if args.merge and out.is_file():
         meta, rows, fits = merged(json.loads(out.read_text()), meta, rows, fits)
@@ -237,6 +245,12 @@ def grid_models(args) -> dict[str, dict[str, tuple]]:
                 t = math.radians(deg)
                 models[f"{a:g}@{deg}"] = (("aniso_c", a * math.cos(2 * t)), ("aniso_s", a * math.sin(2 * t)))
         grids["drake_an"] = models
+    if args.rate_grid is not None:
+        models = {"0": ()}
+        for pair in args.rate_grid:
+            drop, speed = (float(v) for v in pair.split(","))
+            models[f"{drop:g}@{speed:g}"] = (("rate_drop", drop), ("rate_speed", speed))
+        grids["drake_rate"] = models
     return grids
 
 
@@ -377,7 +391,7 @@ def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
         line = (f"{shape:<8} c = {fit['c_m'] * 1e3:.1f} mm, nominal mu_s {fit['nominal_mu_s']:.2f} mu_p "
                 f"{fit['nominal_mu_p']:.2f}; fitted mu_p {', '.join(f'{v:.2f}' for v in mu_p) or '-'}; mu_s "
                 f"{', '.join(f'{v:.2f}' for v in mu_s) or 'no trusted force'}; mu_p with c x factor {with_c or '-'}")
-        for column in ("drake_ps", "drake_an"):
+        for column in ("drake_ps", "drake_an", "drake_rate"):
             if any(column in f for f in fit["folds"]):
                 line += f"; {column} " + ", ".join(f[column]["chosen"] for f in fit["folds"] if column in f)
         cones = [f["cone"] for f in fit["folds"] if f.get("cone")]

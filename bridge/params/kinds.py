@@ -36,7 +36,7 @@ from ..odb.ranges import DISSIPATION, FRICTION, HYDROELASTIC_MODULUS, MASS, Phys
 from ..rollout.rollout import Rollout
 from ..sim.extras import ObjectScale, SurfacePatch, WeldedShape
 from ..sim.shapes import mass_properties
-from ..sim.anisotropy import AnisotropicFriction, FrictionField
+from ..sim.anisotropy import AnisotropicFriction, FrictionField, RateFriction
 from ..sim.friction import combined_friction, pair_coefficients
 from ..sim.support import SupportPressure
 from ..values import GRAVITY, Pose
@@ -54,6 +54,7 @@ LATENCY_SHARE = 0.5  # a latency shifts this share of the telemetry out of the r
 # a friction coefficient (or the factor on a robot's pairs) within this share of the object database's changes nothing
 # a user would act on: repeated measurements of one material pair scatter by more (as 5 % of mass, `Mass.negligible`)
 NEGLIGIBLE_FRICTION = 0.05
+RATE_SPEED = 0.02  # m/s: `rate_speed`'s null, a Stribeck speed of dry contact (millimetres to centimetres a second)
 
 
 class Kind:
@@ -1037,6 +1038,64 @@ class FieldGy(_FieldComponent):
     doc = "friction varying over the support: the pair coefficient's relative change per metre along world y"
 
 
+class Rate(Family):
+    """The object's friction on its support depending on each footprint point's slip speed
+    (`bridge.sim.anisotropy.RateFriction`, the Stribeck curve): the pair's coefficient (as the scene values have it)
+    when sliding fast, (1 + drop) times it near rest, the excess decaying over `speed`; a new scene per value."""
+
+    name = "rate_friction"
+    members = {"drop": "rate_drop", "speed": "rate_speed"}
+
+    @classmethod
+    def realise(cls, values, target, rollout, odb):
+        drop, speed = values.get("drop", 0.0), values.get("speed", RATE_SPEED)
+        world = rollout.world
+        surface = support_of(world, odb, target)
+        if drop == 0.0 or surface is None:
+            return rollout
+        mu = combined_friction(_scene_friction(rollout, odb, target), _scene_friction(rollout, odb, surface))
+        return rollout.with_extras(RateFriction(target, float(drop), float(speed), mu, surface_top(world, odb, surface)))
+
+
+class RateDrop(_Member):
+    null_is_world = True
+    family, targets = Rate, "free objects"
+    name, component = "rate_drop", "drop"
+    doc = ("friction that changes with the slip speed: the coefficient near rest over the one at speed, less 1 "
+           "(> 0: the Stribeck curve of dry contact, < 0: a coefficient that rises with speed)")
+    physical = PhysicalRange(-0.9, 9.0, "", "the coefficient near rest stays between a tenth and ten times the one at "
+                             "speed")
+
+    def null(self, world, odb, target):
+        return 0.0
+
+    def bounds(self, world, odb, target):
+        return -0.5, 3.0
+
+    def step(self, world, odb, target):
+        return 0.3
+
+    def negligible(self, world, odb, target):
+        return NEGLIGIBLE_FRICTION
+
+
+class RateSpeed(_Member):
+    family, targets, unit = Rate, "free objects", "m/s"
+    name, component = "rate_speed", "speed"
+    doc = "friction that changes with the slip speed: the speed over which the coefficient falls from rest (rate_drop)"
+    physical = PhysicalRange(0.005, 1.0, "m/s", "below 5 mm/s the explicit force is unstable at a few ms a step "
+                             "(bridge/sim/anisotropy.py); above 1 m/s no push of a table-top object slides")
+
+    def null(self, world, odb, target):
+        return RATE_SPEED
+
+    def bounds(self, world, odb, target):
+        return 0.01, 0.2
+
+    def step(self, world, odb, target):
+        return 0.01
+
+
 class ObjectFrame(Family):
     """Where the recording's tracker puts an object's frame: the pose X_BR of the recorded frame in the object's body
     frame (markers off the centre the model's geometry assumes, a frame turned). The body starts where the recorded
@@ -1153,7 +1212,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     ObstacleX(), ObstacleY(), ObstacleMu(),
     PatchCx(), PatchCy(), PatchHalf(), PatchBreadth(), PatchYaw(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
-    AnisoC(), AnisoS(), FieldGx(), FieldGy(),
+    AnisoC(), AnisoS(), FieldGx(), FieldGy(), RateDrop(), RateSpeed(),
     SlidingFriction(), RobotFriction(),
     FrameX(), FrameY(), FrameYaw(), ObjectScaleKind(),
 )}

@@ -455,12 +455,12 @@ def add_robot(plant, world: WorldState, odb: ObjectDatabase):
 
 def _slip_friction(builder, plant, world: WorldState, odb: ObjectDatabase, config: SimConfig, bodies: dict,
                    extras: Sequence):
-    """The system adding anisotropic friction and friction fields (`sim/anisotropy.py`) for the extras that ask
-    for them, or None."""
-    from .anisotropy import AnisotropicFriction, FrictionField, SlipFriction, footprint_points
+    """The system adding anisotropic friction, friction fields and rate-dependent friction (`sim/anisotropy.py`) for
+    the extras that ask for them, or None."""
+    from .anisotropy import AnisotropicFriction, FrictionField, RateFriction, SlipFriction, footprint_points
     from .support import bottom_polygon
 
-    wanted = [e for e in extras if isinstance(e, (AnisotropicFriction, FrictionField))]
+    wanted = [e for e in extras if isinstance(e, (AnisotropicFriction, FrictionField, RateFriction))]
     if not wanted:
         return None
     entries = []
