@@ -84,7 +84,8 @@ def main() -> None:
             result_path = REPO / "benchmarks" / "results" / (name if args.fit_contact else
                                                              name.replace(".json", "_database_contact.json"))
             result_path.parent.mkdir(parents=True, exist_ok=True)
-            result_path.write_text(json.dumps(proof_json("full", chosen, seconds), indent=2) + "\n")
+            data = {**proof_json("full", chosen, seconds), "contact_fitted": args.fit_contact}
+            result_path.write_text(json.dumps(data, indent=2) + "\n")
             print(f"wrote {result_path}")
     (out / "proof.md").write_text("# Proof (full)\n\n```\n" + text + "\n```\n")
     for world, summary in summaries(rows).items():
