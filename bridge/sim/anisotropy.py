@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -62,11 +63,44 @@ MAX_ANISOTROPY = 0.9  # |a| < 1: a coefficient across the grain must stay positi
 MIN_FIELD = 0.1  # the field's coefficient never falls below this share of the pair's (it stays positive)
 
 
-@dataclass(frozen=True)
-class AnisotropicFriction:
-    """A scene extra: object `object` slides on a support whose top is at `top_z` (world) with the pair
-    coefficient `mu` (the isotropic one Drake applies) made anisotropic by (`a_c`, `a_s`) (module docstring)."""
+class SlipExtra:
+    """What the slip-force extras share: a free object `object` sliding with the pair coefficient `mu` on a
+    support whose top is at `top_z` (world), and a force that `SlipFriction` adds from the slip velocity (the
+    system is added with the diagram's sources, `scene._build`, so `add_to` only checks)."""
 
+    label: ClassVar[str]
+    object: str
+    mu: float
+    top_z: float
+
+    def invalid(self) -> str | None:
+        """What is wrong with the extra's own values, or None."""
+        return None
+
+    def check(self, world, odb) -> None:
+        if self.object not in world.objects or odb.get(world.objects[self.object].type).fixed:
+            raise SceneError(f"{self.label}: no free object {self.object!r} in world {world.name!r}")
+        problem = self.invalid()
+        if problem:
+            raise SceneError(f"{self.label} on {self.object!r}: {problem}")
+
+    def add_to(self, plant, world, odb, config) -> None:
+        self.check(world, odb)
+
+    def matrix(self) -> np.ndarray:
+        """The pair's coefficient matrix (2, 2, world x-y) before the per-point factor."""
+        return self.mu * np.eye(2)
+
+    def factor(self, xy: np.ndarray, speed: np.ndarray) -> np.ndarray:
+        """The coefficient over `matrix()` at world points `xy` (n, 2) sliding at `speed` (n,) m/s."""
+        return np.ones(len(xy))
+
+
+@dataclass(frozen=True)
+class AnisotropicFriction(SlipExtra):
+    """Object `object`'s pair coefficient `mu` made anisotropic by (`a_c`, `a_s`) (module docstring)."""
+
+    label: ClassVar[str] = "anisotropic friction"
     object: str
     a_c: float
     a_s: float
@@ -82,28 +116,22 @@ class AnisotropicFriction:
         """The direction (rad, world, in (-pi/2, pi/2]) of the larger coefficient."""
         return 0.5 * math.atan2(self.a_s, self.a_c)
 
-    def check(self, world, odb) -> None:
-        if self.object not in world.objects or odb.get(world.objects[self.object].type).fixed:
-            raise SceneError(f"anisotropic friction: no free object {self.object!r} in world {world.name!r}")
+    def invalid(self) -> str | None:
         if not (self.anisotropy < MAX_ANISOTROPY and self.mu > 0 and math.isfinite(self.top_z)):
-            raise SceneError(f"anisotropic friction on {self.object!r}: needs |a| < {MAX_ANISOTROPY} (got "
-                             f"{self.anisotropy:.3g}) and a positive coefficient (got {self.mu!r})")
-
-    def add_to(self, plant, world, odb, config) -> None:
-        self.check(world, odb)  # the force system is added with the diagram's sources (`scene._build`)
+            return (f"needs |a| < {MAX_ANISOTROPY} (got {self.anisotropy:.3g}) and a positive coefficient "
+                    f"(got {self.mu!r})")
+        return None
 
     def matrix(self) -> np.ndarray:
         return self.mu * np.array([[1 + self.a_c, self.a_s], [self.a_s, 1 - self.a_c]])
 
-    def factor(self, xy: np.ndarray, speed: np.ndarray) -> np.ndarray:
-        return np.ones(len(xy))
-
 
 @dataclass(frozen=True)
-class FrictionField:
-    """A scene extra: object `object`'s pair coefficient `mu` on its support (top at `top_z`) varies over the
-    surface as mu (1 + g . (p - origin)), g = (`g_x`, `g_y`) per metre, p world (x, y) (module docstring)."""
+class FrictionField(SlipExtra):
+    """Object `object`'s pair coefficient `mu` varying over the surface as mu (1 + g . (p - origin)),
+    g = (`g_x`, `g_y`) per metre, p world (x, y) (module docstring)."""
 
+    label: ClassVar[str] = "friction field"
     object: str
     g_x: float
     g_y: float
@@ -111,51 +139,36 @@ class FrictionField:
     mu: float
     top_z: float
 
-    def check(self, world, odb) -> None:
-        if self.object not in world.objects or odb.get(world.objects[self.object].type).fixed:
-            raise SceneError(f"friction field: no free object {self.object!r} in world {world.name!r}")
+    def invalid(self) -> str | None:
         if not (self.mu > 0 and all(map(math.isfinite, (self.g_x, self.g_y, *self.origin, self.top_z)))):
-            raise SceneError(f"friction field on {self.object!r}: needs finite values and a positive coefficient "
-                             f"(got mu {self.mu!r}, g ({self.g_x!r}, {self.g_y!r}))")
-
-    def add_to(self, plant, world, odb, config) -> None:
-        self.check(world, odb)
-
-    def matrix(self) -> np.ndarray:
-        return self.mu * np.eye(2)
+            return (f"needs finite values and a positive coefficient (got mu {self.mu!r}, g ({self.g_x!r}, "
+                    f"{self.g_y!r}))")
+        return None
 
     def factor(self, xy: np.ndarray, speed: np.ndarray) -> np.ndarray:
-        """The coefficient over `mu` at world points `xy` (n, 2)."""
         return np.maximum(MIN_FIELD, 1.0 + (np.asarray(xy) - np.asarray(self.origin)) @ np.array([self.g_x, self.g_y]))
 
 
 @dataclass(frozen=True)
-class RateFriction:
-    """A scene extra: object `object`'s pair coefficient `mu` on its support (top at `top_z`) rises to
-    mu (1 + `drop`) as a footprint point's slip speed falls well below `speed` (m/s; module docstring)."""
+class RateFriction(SlipExtra):
+    """Object `object`'s pair coefficient `mu` rising to mu (1 + `drop`) as a footprint point's slip speed
+    falls well below `speed` (m/s; module docstring)."""
 
+    label: ClassVar[str] = "rate-dependent friction"
     object: str
     drop: float
     speed: float
     mu: float
     top_z: float
 
-    def check(self, world, odb) -> None:
-        if self.object not in world.objects or odb.get(world.objects[self.object].type).fixed:
-            raise SceneError(f"rate-dependent friction: no free object {self.object!r} in world {world.name!r}")
+    def invalid(self) -> str | None:
         if not (self.drop > MIN_FIELD - 1 and self.speed > 0 and self.mu > 0
                 and all(map(math.isfinite, (self.drop, self.speed, self.top_z)))):
-            raise SceneError(f"rate-dependent friction on {self.object!r}: needs drop > {MIN_FIELD - 1:g}, a positive "
-                             f"speed and coefficient (got drop {self.drop!r}, speed {self.speed!r}, mu {self.mu!r})")
-
-    def add_to(self, plant, world, odb, config) -> None:
-        self.check(world, odb)
-
-    def matrix(self) -> np.ndarray:
-        return self.mu * np.eye(2)
+            return (f"needs drop > {MIN_FIELD - 1:g}, a positive speed and coefficient (got drop {self.drop!r}, "
+                    f"speed {self.speed!r}, mu {self.mu!r})")
+        return None
 
     def factor(self, xy: np.ndarray, speed: np.ndarray) -> np.ndarray:
-        """The coefficient over `mu` at points sliding at `speed` (n,) m/s."""
         return 1.0 + self.drop * np.exp(-np.asarray(speed) / self.speed)
 
 
@@ -192,8 +205,7 @@ class SlipFriction(LeafSystem):
     """Outputs the anisotropic friction's, the friction fields' and the rate-dependent friction's added spatial
     force on each object that has one, from the plant's state (positions and velocities) at the step's start."""
 
-    def __init__(self, plant, entries: list[tuple[AnisotropicFriction | FrictionField | RateFriction, object,
-                                                  np.ndarray, np.ndarray, float]]):
+    def __init__(self, plant, entries: list[tuple[SlipExtra, object, np.ndarray, np.ndarray, float]]):
         """`entries`: (the extra, its body, footprint points (n, 2) body frame, weights, the bottom's z in the
         body frame)."""
         super().__init__()

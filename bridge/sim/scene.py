@@ -457,10 +457,10 @@ def _slip_friction(builder, plant, world: WorldState, odb: ObjectDatabase, confi
                    extras: Sequence):
     """The system adding anisotropic friction, friction fields and rate-dependent friction (`sim/anisotropy.py`) for
     the extras that ask for them, or None."""
-    from .anisotropy import AnisotropicFriction, FrictionField, RateFriction, SlipFriction, footprint_points
+    from .anisotropy import SlipExtra, SlipFriction, footprint_points
     from .support import bottom_polygon
 
-    wanted = [e for e in extras if isinstance(e, (AnisotropicFriction, FrictionField, RateFriction))]
+    wanted = [e for e in extras if isinstance(e, SlipExtra)]
     if not wanted:
         return None
     entries = []
