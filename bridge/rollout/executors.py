@@ -60,11 +60,14 @@ def run_task(job: Job, ref: OdbRef) -> Outcome:
 
 
 def expected_seconds(job: Job) -> float:
-    """Simulated seconds of a job: what its cost scales with."""
+    """Simulated seconds of a job: what its cost scales with (a quasi-static replay, `Rollout.time_scale`,
+    simulates its recording's span that many times faster)."""
     if job.options.end is not None:
-        return float(job.options.end)
-    telemetry = job.rollout.telemetry
-    return (float(telemetry.end) if telemetry is not None else 0.0) + job.options.settle
+        span = float(job.options.end)
+    else:
+        telemetry = job.rollout.telemetry
+        span = (float(telemetry.end) if telemetry is not None else 0.0) + job.options.settle
+    return span / job.rollout.time_scale
 
 
 class SerialExecutor(FuturesExecutor):

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import time as wallclock
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Mapping, Protocol, Sequence
 
 import numpy as np
@@ -29,6 +29,7 @@ from ..world import WorldState
 from .contacts import PROXIMITY, ContactReader
 from .scene import Scene, SceneValues, from_drake
 from .sleep import Sleepers
+from .stillness import Stillness
 
 MOVED_TRANSLATION = 0.005  # m
 MOVED_ROTATION = math.radians(3.0)
@@ -172,10 +173,33 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     sleepers = Sleepers(scene, context, options.sample_rate) if sleeping else None
     follower = _Kinematic(scene, context) if sleeping else None
     kinematic = False  # every object asleep: the robot follows its telemetry, nothing is stepped
+    # nothing moves and nothing is commanded to move: samples up to `held_to` are held as they were (stillness.py)
+    still = (Stillness.of(telemetry.times, telemetry.positions[:, cols]) if cols is not None
+             else Stillness.of(None, None)) if sleeping else None
+    held_to, held_contacts = -1, []
     spans, span_start, awake_wall, span_wall = [], 0.0, 0.0, wallclock.perf_counter()
     poses: dict[str, Pose] = {}
     for k, t in enumerate(times):
         t = float(t)
+        if k <= held_to:
+            for name in names:
+                tracks[name][k] = tracks[name][k - 1]
+            for series in (joints, force):
+                if series is not None:
+                    series[k] = series[k - 1]
+            contacts = [replace(c, time=t) for c in held_contacts]
+            if options.contacts:
+                log.extend(contacts)
+            if on_sample is not None:
+                on_sample(t, poses, contacts)
+            if progress is not None:
+                progress(t, float(times[-1]))
+            if k == held_to:  # the robot is commanded to move after the next step: step again from here
+                context.SetTime(t)
+                simulator.Initialize()
+                still.resumed()
+                span_start, span_wall = t, wallclock.perf_counter()
+            continue
         if t > 0 and kinematic:
             follower.move_to(t)
         elif t > 0:
@@ -251,6 +275,14 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             on_sample(t, poses, contacts)
         if progress is not None:
             progress(t, float(times[-1]))
+        if still is not None and not kinematic and k < len(times) - 3:
+            until = still.update(t, float(np.max(sleepers.speeds(), initial=0.0)))
+            # held at most to the sample before the last interval, which is always stepped
+            last = -1 if until is None else min(int(np.searchsorted(times, until + 1e-9)) - 1, len(times) - 3)
+            if last > k:
+                held_to, held_contacts = last, contacts
+                spans.append((span_start, t))
+                awake_wall += wallclock.perf_counter() - span_wall
     if not kinematic:
         spans.append((span_start, float(times[-1])))
         awake_wall += wallclock.perf_counter() - span_wall
