@@ -101,8 +101,9 @@ def _model_args(p: argparse.ArgumentParser) -> None:
 
 def _sleep_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-sleep", dest="sleep", action="store_false", help="simulate every object at every step, "
-                   "also those at rest out of the robot's reach (the full simulation: slower, the same result to "
-                   "well under a millimetre; docs/rollout.md, sleeping objects)")
+                   "also those at rest out of the robot's reach and while nothing moves or is commanded to move (the full "
+                   "simulation: slower, the same result to well under a millimetre; docs/rollout.md, sleeping objects "
+                   "and still spans)")
 
 
 class _Parser(argparse.ArgumentParser):
