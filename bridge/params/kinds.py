@@ -44,7 +44,7 @@ from ..world import WorldState
 from .surfaces import footprint_half, movable_objects, support_of, supported_by, surface_top
 
 TYPE_PREFIX = "type:"
-OBSTACLE_RADIUS = 0.015  # m: the post `obstacle_x`/`obstacle_y` place
+OBSTACLE_RADIUS = 0.015  # m: the post `obstacle_x`/`obstacle_y` place, unless `obstacle_radius` says
 OBSTACLE_FRICTION = 0.5  # the post's own coefficient unless `obstacle_mu` says (Drake combines it with the object's)
 PATCH_RAISED = 1.0e-6  # m: the sheet carries what stands on it (objects sink ~0.6 um), its edge is no step
 ANY = PhysicalRange(-math.inf, math.inf, why="any finite number")
@@ -682,12 +682,13 @@ def _extent(world: WorldState, odb: ObjectDatabase, target: str) -> tuple[float,
 
 
 class Obstacle(Family):
-    """A welded upright post of radius `OBSTACLE_RADIUS` at (x, y) on the surface, taller than anything on it, with
-    its own friction coefficient `mu` (an unseen obstacle's surface is as unknown as its place: whether an object
-    slides past it or pivots on it depends on that coefficient)."""
+    """A welded upright post of radius `radius` (default `OBSTACLE_RADIUS`) at (x, y) on the surface, taller than
+    anything on it, with its own friction coefficient `mu` (an unseen obstacle's surface is as unknown as its place:
+    whether an object slides past it or pivots on it depends on that coefficient; and its size, where a push that
+    passes beside it says whether it touches)."""
 
     name = "hidden_obstacle"
-    members = {"x": "obstacle_x", "y": "obstacle_y", "mu": "obstacle_mu"}
+    members = {"x": "obstacle_x", "y": "obstacle_y", "mu": "obstacle_mu", "radius": "obstacle_radius"}
 
     @classmethod
     def realise(cls, values, target, rollout, odb):
@@ -698,8 +699,8 @@ class Obstacle(Family):
         tallest = max([z_range(odb.get(world.objects[n].type).geometry, world.objects[n].pose)[1]
                        for n in movable_objects(world, odb)] + [top + 0.05])
         height = tallest - top + 0.05
-        return rollout.with_extras(WeldedShape("hidden_obstacle", "cylinder", (OBSTACLE_RADIUS, height),
-                                               (x, y, top + height / 2),
+        radius = values.get("radius", OBSTACLE_RADIUS)
+        return rollout.with_extras(WeldedShape("hidden_obstacle", "cylinder", (radius, height), (x, y, top + height / 2),
                                                friction=values.get("mu", OBSTACLE_FRICTION)))
 
 
@@ -756,6 +757,22 @@ class ObstacleMu(_Member):
 
     def step(self, world, odb, target):
         return 0.1
+
+
+class ObstacleRadius(_Member):
+    name, component, family, unit = "obstacle_radius", "radius", Obstacle, "m"
+    doc = "a post the world model lacks: its radius"
+    physical = PhysicalRange(0.0, 0.5, "m", "in m: a post half a metre wide is a wall of the scene, not a hidden part",
+                             open_low=True)
+
+    def null(self, world, odb, target):
+        return OBSTACLE_RADIUS
+
+    def bounds(self, world, odb, target):  # a screw's head to a box a hand's width across
+        return 0.004, 0.05
+
+    def step(self, world, odb, target):
+        return 0.005
 
 
 class Patch(Family):
@@ -1209,7 +1226,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Mass(), MassSpread(), ComX(), ComY(), ComZ(), ForceX(), ForceY(), ForceZ(),
     Latency(), JointOffset(),
     SurfaceSlopeX(), SurfaceSlopeY(), SurfaceDz(),
-    ObstacleX(), ObstacleY(), ObstacleMu(),
+    ObstacleX(), ObstacleY(), ObstacleMu(), ObstacleRadius(),
     PatchCx(), PatchCy(), PatchHalf(), PatchBreadth(), PatchYaw(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
     AnisoC(), AnisoS(), FieldGx(), FieldGy(), RateDrop(), RateSpeed(),

@@ -264,3 +264,35 @@ def test_a_posts_full_fit_stays_within_reach_of_where_the_evidence_put_it(planar
     assert space.from_normal(far)[1] == pytest.approx(-0.02 + PLACE_REACH)
     tilt = get_effect("surface_tilt")
     assert tilt.fit_region({}, "surface") == {}
+
+
+def test_a_wider_post_stops_a_push_earlier_and_its_seeds_touch_where_the_default_does(planar_world, odb):
+    """Through Drake: the block (yaw 0.1, at the origin) pushed along +x for 10 cm towards a post at x = 0.12 stops
+    against it; a post of 25 mm radius at the same centre stops it about 10 mm earlier than the default 15 mm one
+    (the obstacle's size is a fitted parameter, `obstacle_radius`). A post of another radius seeded for the same
+    spot is moved along the line from the nearest observed object position so that it touches where the default
+    post touches."""
+    import numpy as np
+
+    from bridge.diagnosis.effects.hidden_obstacle import _resized
+    from bridge.params.kinds import OBSTACLE_RADIUS
+    from bridge.rollout import run_rollout
+    from bridge.sim.simulate import SimOptions
+
+    t = np.round(np.arange(0.0, 1.6 + 1e-9, 0.01), 6)
+    x = -0.045 - 0.00476 - 0.003 + np.clip(t - 0.1, 0.0, 1.0) * 0.1
+    push = Rollout(planar_world, Telemetry(t, ("pusher_x", "pusher_y"), np.column_stack([x, np.zeros_like(x)])))
+    reached = {}
+    for radius in (OBSTACLE_RADIUS, 0.025):
+        post = get_effect("hidden_obstacle").model(planar_world, odb, "surface", {
+            pname("obstacle_x", "surface"): 0.12, pname("obstacle_y", "surface"): 0.0,
+            pname("obstacle_radius", "surface"): radius})
+        result = run_rollout(apply_model(post, push, odb), odb, SimOptions(sample_rate=50.0))
+        reached[radius] = float(np.max(result.tracks["block"][:, 0]))
+    assert reached[OBSTACLE_RADIUS] < 0.08  # stopped by the post, short of the rod's 10 cm
+    assert reached[OBSTACLE_RADIUS] - reached[0.025] == pytest.approx(0.010, abs=0.003)
+    features = [{"poses_obs": np.array([[0.0, 0.0, 0.0], [0.05, 0.0, 0.0]])}]
+    spot = np.array([0.12, 0.01])
+    moved = _resized(spot, 0.025, features)
+    away = (spot - [0.05, 0.0]) / np.linalg.norm(spot - [0.05, 0.0])
+    assert moved == pytest.approx(spot + 0.01 * away)

@@ -337,3 +337,31 @@ def test_the_verdict_is_refitted_at_the_database_contact_where_it_was_screened_a
     assert _database_contact(held_at(database), params) is None
     plain = _friction_parameters(planar_world, odb, "block")
     assert _database_contact(_space(plain, effect, "block", planar_world, odb), plain) is None
+
+
+def test_the_floor_is_the_friction_model_that_predicts_better_and_an_effect_is_not_credited_with_the_contact():
+    """The friction model with its contact fitted predicts most recordings worse than with the database's contact
+    (a mismatched tri1 world, its figures): a post fitted at the database's contact that touches two recordings
+    (one better, one worse) removes most of what the contact-fitted floor leaves, but against the floor at the
+    database's contact it removes too little: the floor is whichever friction model predicts better, and the post
+    is no verdict."""
+    from bridge.diagnosis.identify import _better_floor
+
+    n = 200
+
+    def cv(*rms):
+        return {k: (r ** 2 * n, n) for k, r in zip("abcdefg", rms)}
+
+    none = _scored("none", 0, 0, cv(*[30.0] * 7))
+    fitted_contact = _scored("friction", 0, 0, cv(4.7, 5.6, 4.2, 2.2, 2.9, 7.3, 21.4),
+                             params={"sliding_friction[box]": 0.12})
+    database_contact = _scored("friction", 0, 0, cv(1.0, 4.4, 2.7, 2.0, 1.8, 4.8, 22.0),
+                               params={"sliding_friction[box]": 0.14})
+    post = _scored("hidden_obstacle", 0, 0, cv(1.0, 4.2, 2.7, 2.0, 1.8, 8.2, 9.0))
+    assert post.cv.compare(fitted_contact.cv) > CV_GAIN  # against the contact-fitted floor it would pass
+    floor = _better_floor(fitted_contact, database_contact)
+    assert floor is database_contact
+    assert post.cv.compare(floor.cv) < CV_GAIN
+    assert _better_floor(database_contact, fitted_contact) is database_contact
+    assert _better_floor(fitted_contact, _scored("friction", 0, 0)) is fitted_contact  # nothing to compare: kept
+    assert none.cv.compare(floor.cv) < 0

@@ -71,7 +71,9 @@ def test_recordings_of_another_frame_on_the_object_are_fitted_back(odb, tmp_path
         starts = [space.to_normal({**ordinary.values(), **seed}) for seed in effect.seeds(
             Evidence((), world, odb), "block")]  # as a diagnosis starts it: its seeds, with the fitted friction
         chis = [ev.chi2(space.model(space.from_normal(x))) for x in starts]
-        framed = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=8)
+        # the turn is the weak direction (a 2 deg error costs 3 % of chi2): 8 evaluations left it 1.8 or 2.4 deg short
+        # as round-off steered the secant steps (session 53); 16 bring it within 1 deg either way
+        framed = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=16)
         exact, n = chi2_of(runner.run(effect.model(world, odb, "block", truth.params), [0, 1, 2]))
     # the recorder's frame and the model's agree through the simulation (what is left: the noise, and the start
     # poses read from noisy observations)
