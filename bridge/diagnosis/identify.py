@@ -433,7 +433,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     # the ordinary model at the database's contact as well: the floor is whichever of the two predicts the
     # recordings it was not fitted on better, so that no effect fitted at the database's contact is credited with
     # the contact (`_cross_validate`)
-    other_floor = None
+    other = None
     contact = {p.name: float(p.start) for p in friction_params if p.kind.contact_model}
     fitted_contact = fits[("friction", None)].values()
     if contact and any(not math.isclose(fitted_contact[k], v) for k, v in contact.items()) and not limit.expired():
@@ -441,17 +441,16 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         result = fit(ev, at_database, at_database.to_normal(fits[("friction", None)].values()),
                      max_iterations=options.max_iterations + FRICTION_EXTRA, optimizer=options.optimizer,
                      should_stop=limit.expired)
-        other_floor = (_held_out(runner, held_out, [_from_fit("friction", None, result, world, odb)])[0], result)
-        say(f"friction at the database's contact: {_fmt(result.values())}, rms {other_floor[0].rms:.1f} "
+        other = (_held_out(runner, held_out, [_from_fit("friction", None, result, world, odb)])[0], result)
+        say(f"friction at the database's contact: {_fmt(result.values())}, rms {other[0].rms:.1f} "
             f"[{runner.simulations} simulations]")
     fitted = [_checked_against(s, loader, frame, world, odb) for s in fitted]
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
     scored = _score(fitted, tau)
-    if other_floor is not None:
-        other = (next(m for m in _score([fitted[0], other_floor[0]], tau) if m.effect == "friction"), other_floor[1])
-    scored, fits = _cross_validate(runner, ev, scored, fits, loc, _names(runner, held_out), world, odb,
-                                   other if other_floor is not None else None)
-    if other_floor is not None and not any(p.free and p.kind.contact_model
+    if other is not None:  # scored against `none` (fitted[0]) as the rest were
+        other = (next(m for m in _score([fitted[0], other[0]], tau) if m.effect == "friction"), other[1])
+    scored, fits = _cross_validate(runner, ev, scored, fits, loc, _names(runner, held_out), world, odb, other)
+    if other is not None and not any(p.free and p.kind.contact_model
                                            for p in fits[("friction", None)].space.entries):
         say("the floor is the friction model at the database's contact: it predicts the recordings it was not "
             "fitted on better than with the contact fitted")

@@ -69,6 +69,8 @@ def test_unit_box_and_normal_coordinates_round_trip(tmp_path):
      ["start 2 is outside the bounds [0.1, 1]"]),
     ("params:\n  - {kind: mass, target: big_box, bounds: [0, 2]}", "params[0].bounds[0]", ["mass 0 kg is outside the physical range (0, 1000] kg"]),
     ("params:\n  - {kind: friction, target: big_box, bounds: [-0.1, 1]}", "params[0].bounds[0]", ["friction -0.1 is outside the physical range [0, 5]"]),
+    ("params:\n  - {kind: obstacle_radius, target: table, value: 0}", "params[0].value",
+     ["obstacle_radius 0 m is outside the physical range (0, 0.5] m"]),
     ("params:\n  - {kind: com_x, target: big_box, bounds: [-0.1, 0.1], scale: log}", "params[0].bounds",
      ["log scale needs bounds > 0"]),
     ("params:\n  - {kind: friction, target: big_box, bounds: [0.1, 1], scale: cubic}", "params[0].scale",

@@ -13,7 +13,7 @@ centre is, so posts of other radii are seeded touching the same spot (`RADII`): 
 alone did not move a 15 mm post's radius. Measured (session 53, docs/diagnosis.md section 6): the matched proof's
 30 mm box (seed 2) fitted as an 8.7 mm post, its held-out error down 90 % where the 15 mm post's rose 21 %; a
 mismatched ellip1's fit with the radius free stalled at its screened point (`none`, where the 15 mm post was named
-and predicted its held-out pushes 65 % worse).
+and predicted its held-out pushes 67 % worse).
 """
 from __future__ import annotations
 
