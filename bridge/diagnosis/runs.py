@@ -31,7 +31,8 @@ SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
 FAILED_FORCE = 1.0e3  # N per component of a failed replay's force residual
 COARSE_STEP = 0.003  # s: the time step a diagnosis replays at when its error is small against the mismatch
 STEP_SHARE = 0.01  # ... at most this share of the nominal model's chi^2 above the noise (`choose_time_step`)
-QUASI_STATIC_SPEED = 0.025  # m/s: a slower recording is replayed this fast (`rollout.quasi_static`) ...
+QUASI_STATIC_SPEEDS = (0.04, 0.025)  # m/s: a slower recording is replayed at the first of these that changes it
+#                                      little (`rollout.quasi_static`, `choose_time_scales`) ...
 MAX_SCALE = 4.0  # ... at most this many times faster,
 MIN_SCALE = 1.25  # ... not at all when it would save less than a fifth of the steps,
 #                   and only where it changes the replay by STEP_SHARE at most (`choose_time_scales`)
@@ -275,10 +276,11 @@ class ScaleChoice:
             return "every recording replayed at its own speed, as asked"
         if not self.tried:
             return (f"every recording replayed at its own speed: none moved slower than "
-                    f"{1e3 * QUASI_STATIC_SPEED / MIN_SCALE:.0f} mm/s")
+                    f"{1e3 * QUASI_STATIC_SPEEDS[0] / MIN_SCALE:.0f} mm/s")
         kept = ", ".join(f"{n} x{k:.2g}" for n, k in self.taken.items()) or "none"
         refused = [n for n in self.tried if n not in self.taken]
-        text = (f"slow recordings replayed faster (quasi-static, up to {1e3 * QUASI_STATIC_SPEED:.0f} mm/s): {kept}")
+        text = (f"slow recordings replayed faster (quasi-static, at most {1e3 * QUASI_STATIC_SPEEDS[0]:.0f} mm/s): "
+                f"{kept}")
         if refused:
             text += (f"; at their own speed: {', '.join(refused)} (the faster replay changed it by more than "
                      f"{100 * STEP_SHARE:g} % of its chi^2 above the noise, or it sits at the noise)")
@@ -317,37 +319,47 @@ def choose_time_scales(runner: Runner, indices: Sequence[int], enabled: bool = T
     """Replay slow recordings faster (`rollout.quasi_static`) where that changes their nominal replay by little
     against what the diagnosis explains.
 
-    A recording whose motion went slower than QUASI_STATIC_SPEED / MIN_SCALE is tried at QUASI_STATIC_SPEED
-    (at most MAX_SCALE times faster); it keeps the scale when the change d of its nominal residual has chi^2(d)
-    at most STEP_SHARE of its nominal chi^2 above the noise: the rule the time step follows, per recording
-    (`choose_time_step`). Near the noise (a world the model matches) or where the faster replay fails, the
-    recording runs at its own speed. Costs one replay of each recording tried, at its faster speed (the nominal
-    replays at their own speed are those the step's choice ran). Sets `runner.time_scales`."""
+    A recording whose motion went slower than a speed of QUASI_STATIC_SPEEDS / MIN_SCALE is tried at that speed
+    (at most MAX_SCALE times faster), the fastest first; it keeps the first scale at which the change d of its
+    nominal residual has chi^2(d) at most STEP_SHARE of its nominal chi^2 above the noise: the rule the time step
+    follows, per recording (`choose_time_step`). Near the noise (a world the model matches) or where every faster
+    replay fails, the recording runs at its own speed. Costs one replay of each recording at each scale tried
+    (the nominal replays at their own speed are those the step's choice ran). Sets `runner.time_scales`."""
     names = {i: runner.prepared[i].name for i in indices}
     speeds = {i: recording_speed(runner.prepared[i]) for i in indices}
     if not enabled:
         runner.time_scales = {}
         return ScaleChoice({names[i]: v for i, v in speeds.items()}, {}, {}, {}, asked_off=True)
-    tried = {i: min(MAX_SCALE, QUASI_STATIC_SPEED / v) for i, v in speeds.items() if v > 0.0}
-    tried = {i: k for i, k in tried.items() if k >= MIN_SCALE}
+    tried: dict[int, float] = {}
     shares: dict[int, float | None] = {}
     taken: dict[int, float] = {}
-    if tried:
-        order = sorted(tried)
+    base: dict[int, Run] = {}  # at its own speed
+    for speed in QUASI_STATIC_SPEEDS:
+        scales = {i: min(MAX_SCALE, speed / v) for i, v in speeds.items() if v > 0.0 and i not in taken}
+        # a slower scale, and only where the own-speed replay left something to compare with (not at the noise)
+        scales = {i: k for i, k in scales.items() if MIN_SCALE <= k < tried.get(i, math.inf)
+                  and (i not in base or _excess(base[i]) > 0.0)}
+        if not scales:
+            continue
+        order = sorted(scales)
         runner.time_scales = {}
-        base = runner.run((), order, tracks=True, contacts=True)
-        runner.time_scales = dict(tried)
-        fast = runner.run((), order, tracks=True, contacts=True)
-        for i, b, f in zip(order, base, fast):
-            excess = b.chi2 - b.normalised.size
-            ok = b.failed is None and f.failed is None and excess > 0
-            d = f.normalised - b.normalised if ok else None
-            shares[i] = float(d @ d) / excess if ok else None
+        new = [i for i in order if i not in base]
+        base.update(zip(new, runner.run((), new, tracks=True, contacts=True)))
+        runner.time_scales = dict(scales)
+        for i, fast in zip(order, runner.run((), order, tracks=True, contacts=True)):
+            ok = fast.failed is None and _excess(base[i]) > 0.0
+            d = fast.normalised - base[i].normalised
+            tried[i], shares[i] = scales[i], (float(d @ d) / _excess(base[i]) if ok else None)
             if ok and shares[i] <= STEP_SHARE:
-                taken[i] = tried[i]
+                taken[i] = scales[i]
     runner.time_scales = taken
     return ScaleChoice({names[i]: v for i, v in speeds.items()}, {names[i]: k for i, k in tried.items()},
                        {names[i]: v for i, v in shares.items()}, {names[i]: k for i, k in taken.items()})
+
+
+def _excess(run: Run) -> float:
+    """chi^2 above the noise of a replay that did not fail (-1 for one that did: nothing to compare with)."""
+    return run.chi2 - run.normalised.size if run.failed is None else -1.0
 
 
 def default_workers() -> int:
