@@ -348,7 +348,7 @@ def choose_time_scales(runner: Runner, indices: Sequence[int], enabled: bool = T
         runner.time_scales = dict(scales)
         for i, fast in zip(order, runner.run((), order, tracks=True, contacts=True)):
             ok = fast.failed is None and _excess(base[i]) > 0.0
-            d = fast.normalised - base[i].normalised
+            d = fast.normalised - base[i].normalised if ok else None
             tried[i], shares[i] = scales[i], (float(d @ d) / _excess(base[i]) if ok else None)
             if ok and shares[i] <= STEP_SHARE:
                 taken[i] = scales[i]
