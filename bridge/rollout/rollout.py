@@ -1,4 +1,4 @@
-"""What one simulation runs (`Rollout`), the process's scene cache, and running a rollout in this process.
+"""What one simulation runs (`Rollout`), the scene cache (one per thread), and running a rollout in this process.
 
 Every replay in bridge goes through here: `bridge infer`, the demo, the viewer's scene, a fit's candidates, a
 diagnosis' models, the proof's generated recordings. A `Rollout` is a plain value (picklable, sent to worker
@@ -13,6 +13,7 @@ fresh context per replay, so recordings of one scene share one diagram however t
 from __future__ import annotations
 
 import math
+import threading
 import time as wallclock
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
@@ -27,7 +28,7 @@ from ..sim.simulate import ReplayResult, SimOptions, simulate, start_replay
 from ..values import Contact, Pose
 from ..world import WorldState
 
-SCENE_CACHE = 32  # diagrams kept per process (a tilted surface or a moved post is a new structure)
+SCENE_CACHE = 32  # diagrams kept per thread (a tilted surface or a moved post is a new structure)
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,21 +80,22 @@ def structure(world: WorldState, odb: ObjectDatabase) -> tuple:
     return objects, robot
 
 
-_SCENES: "OrderedDict[tuple, Scene]" = OrderedDict()
+_LOCAL = threading.local()  # each thread its own scenes: a scene runs one replay at a time (`sim.sources`)
 
 
 def scene_for(rollout: Rollout, odb: ObjectDatabase) -> Scene:
-    """The diagram for the rollout's structure, built on first use in this process and kept (least recently used
+    """The diagram for the rollout's structure, built on first use in this thread and kept (least recently used
     first out)."""
+    scenes: "OrderedDict[tuple, Scene]" = _LOCAL.__dict__.setdefault("scenes", OrderedDict())
     key = (id(odb), str(odb.root), structure(rollout.world, odb), rollout.extras, rollout.config)
-    scene = _SCENES.get(key)
+    scene = scenes.get(key)
     if scene is not None:
-        _SCENES.move_to_end(key)
+        scenes.move_to_end(key)
         return scene
     scene = build_scene(rollout.world, odb, rollout.config, extras=rollout.extras)
-    _SCENES[key] = scene
-    while len(_SCENES) > SCENE_CACHE:
-        _SCENES.popitem(last=False)
+    scenes[key] = scene
+    while len(scenes) > SCENE_CACHE:
+        scenes.popitem(last=False)
     return scene
 
 

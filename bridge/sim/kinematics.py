@@ -22,7 +22,7 @@ from ..errors import ActionError
 from ..odb import ObjectDatabase
 from ..values import Pose
 from ..world import WorldState
-from .scene import to_drake
+from .scene import add_models, to_drake
 from .shapes import drake_shape
 
 
@@ -34,7 +34,7 @@ class Arm:
                  fixtures: tuple[tuple[str, object, Pose], ...]):
         builder = DiagramBuilder()
         plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
-        (instance,) = Parser(plant, "ik_arm").AddModels(model)
+        (instance,) = add_models(Parser(plant, "ik_arm"), model)
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(base_link, instance), to_drake(base))
         for name, shape, pose in fixtures:
             plant.RegisterCollisionGeometry(plant.world_body(), to_drake(pose), shape, f"{name}/ik",
@@ -128,7 +128,7 @@ class Clearance:
     def __init__(self, arm: Arm, objects: tuple[tuple[str, object, Pose], ...], reach: float = 0.1):
         builder = DiagramBuilder()
         plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
-        (instance,) = Parser(plant, "clearance_arm").AddModels(arm.model)
+        (instance,) = add_models(Parser(plant, "clearance_arm"), arm.model)
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(arm.base_link, instance), to_drake(arm.base))
         self.names = {}
         for name, shape, pose in objects:

@@ -2,15 +2,18 @@
 telemetry through PD-controlled actuators.
 
 The diagram is built once per scene *structure* (which objects, of which types, where the fixtures stand, which
-robot, which extras) and never changed afterwards: initial poses, scene values (friction, contact stiffness,
-mass, centre of mass, external forces) and the robot's desired trajectory are written into a fresh context for
-every replay (`Scene.new_context`, `Scene.set_desired`), so a fit never rebuilds the diagram and one diagram can
-serve two replays at once.
+robot, which extras): initial poses and scene values (friction, contact stiffness, mass, centre of mass,
+external forces) are written into a fresh context for every replay (`Scene.new_context`), the robot's desired
+trajectory into the diagram's source at the replay's start (`Scene.set_desired`, `sources`), so a fit never
+rebuilds the diagram; one diagram serves one replay at a time.
 """
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field, replace
+import re
+from collections import OrderedDict
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -33,7 +36,7 @@ from ..values import Pose
 from ..world import WorldState
 from .extras import ObjectScale
 from .shapes import check_shape, drake_shape, mass_properties, scaled_type
-from .sources import ConstantForces, DesiredState
+from .sources import ConstantForces, desired_state_source, set_desired
 from .support import SupportPressure
 
 
@@ -106,6 +109,18 @@ class SceneValues:
         return replace(self, external_forces=forces)
 
 
+VALUED_CONTEXTS = 8  # per scene (`Scene.new_context`): about 0.6 MB each for an MIT shape
+
+
+def _values_key(values: SceneValues) -> tuple:
+    """A hashable key equal for equal values (floats exactly)."""
+    def plain(v):
+        return None if v is None else tuple(float(x) for x in np.ravel(v))
+    objects = tuple(sorted((name, tuple(plain(getattr(p, f.name)) for f in fields(p)))
+                           for name, p in values.objects.items()))
+    return objects, tuple(sorted((name, plain(f)) for name, f in values.external_forces.items()))
+
+
 def to_drake(pose: Pose) -> RigidTransform:
     w, x, y, z = pose.quat
     from pydrake.common.eigen_geometry import Quaternion
@@ -150,24 +165,43 @@ class Scene:
     geometries: dict[str, list]  # object name -> collision geometry ids (free and fixed)
     robot_instance: object | None
     robot_joints: tuple[str, ...]
-    desired_source: "DesiredState | None"
+    desired_source: "TrajectorySource | None"  # the robot's desired state (`sources.set_desired`)
     force_source: "ConstantForces | None"
     body_names: dict[object, str]  # BodyIndex -> 'box' or 'robot/link'
     footprints: dict[str, tuple] = field(default_factory=dict)  # object -> (outline ids, footprint id, sole id
     #                                                              or None): `filter_footprints`
     visualized: bool = False  # a Meshcat visualizer publishes from the diagram
+    # contexts with values written in and nothing else changed, by the values (`new_context`), least recently
+    # used first; never simulated, only cloned
+    valued: "OrderedDict[tuple, object]" = field(default_factory=OrderedDict, repr=False)
 
     # --- contexts -------------------------------------------------------------------------------
     def new_context(self, world: WorldState | None = None, values: SceneValues | None = None):
-        """A fresh context with the world's initial poses and robot joints, and `values` written in."""
+        """A fresh context with the world's initial poses and robot joints, and `values` written in.
+
+        Writing contact values costs 4 ms per geometry (Drake rebuilds its hydroelastic representation on
+        `AssignRole`; 13 ms for a mesh prism with its footprint and sole), a tenth of a short push's replay, and
+        a fit replays every recording of a scene with the same values: the context with the values written is
+        kept (VALUED_CONTEXTS of them) and cloned (0.6 ms). Poses and joints are set on the clone; values do not
+        depend on them."""
         world = world or self.world
-        context = self.diagram.CreateDefaultContext()
+        values = values or SceneValues()
+        key = _values_key(values)
+        base = self.valued.get(key)
+        if base is None:
+            base = self.diagram.CreateDefaultContext()
+            self.apply_values(base, values)
+            self.valued[key] = base
+            while len(self.valued) > VALUED_CONTEXTS:
+                self.valued.popitem(last=False)
+        else:
+            self.valued.move_to_end(key)
+        context = base.Clone()
         plant_ctx = self.plant.GetMyMutableContextFromRoot(context)
         for name, body in self.bodies.items():
             self.plant.SetFreeBodyPose(plant_ctx, body, to_drake(world.objects[name].pose))
         if self.robot_instance is not None and world.robot is not None:
             self.plant.SetPositions(plant_ctx, self.robot_instance, self.robot_positions(world.robot.joint_positions()))
-        self.apply_values(context, values or SceneValues())
         return context
 
     def robot_positions(self, joints: Mapping[str, float]) -> np.ndarray:
@@ -196,9 +230,9 @@ class Scene:
         return np.asarray(columns)
 
     def set_desired(self, context, times: np.ndarray, positions: np.ndarray) -> None:
-        """Make the robot track `positions` (rows: samples, columns: actuators in desired-state order) in this
-        context (first-order hold; see `sources.DesiredState`)."""
-        self.desired_source.set_desired(self.desired_source.GetMyMutableContextFromRoot(context), times, positions)
+        """Make the robot track `positions` (rows: samples, columns: actuators in desired-state order) in the
+        replay of `context`, the next to run on this scene (first-order hold; see `sources.set_desired`)."""
+        set_desired(self.desired_source, context, times, positions)
 
     def actuated_joints(self) -> list:
         """The robot's actuated joints, in desired-state order."""
@@ -435,11 +469,34 @@ def add_floor(plant, config: SimConfig, height: float = 0.0) -> None:
                                     props)
 
 
+# a model that names another file (a mesh, an included model, a package) is parsed from its file, where Drake
+# resolves those names against the file's folder
+_NAMES_FILES = re.compile(r"<uri|<include|filename\s*=|package://|file://|model://")
+
+
+def add_models(parser: Parser, path: str | Path) -> list:
+    """`parser.AddModels(path)`, 50 times faster for a self-contained SDF or URDF. Drake fact (1.51): parsing an
+    SDFormat *file* rebuilds libsdformat's whole schema (`sdf::init`) on every call, 25-33 ms for the 3 kB
+    pusher2d.sdf; the same text parsed from a string takes 0.4 ms after the first in a process. A diagnosis
+    builds a scene for every new structure (a tilt, a post, a patch: about a thousand on 8 real ellip3 pushes),
+    so this was 4 % of its CPU."""
+    path = Path(path)
+    suffix = path.suffix.lower().lstrip(".")
+    if suffix in ("sdf", "urdf"):
+        try:
+            text = path.read_text()
+        except (OSError, UnicodeDecodeError):
+            text = None  # Drake says what is wrong with the file
+        if text is not None and not _NAMES_FILES.search(text):
+            return parser.AddModelsFromString(text, suffix)
+    return parser.AddModels(str(path))
+
+
 def add_robot(plant, world: WorldState, odb: ObjectDatabase):
     spec = odb.get(world.robot.type).robot
     parser = Parser(plant, world.robot.name)
     try:
-        (instance,) = parser.AddModels(str(spec.model))
+        (instance,) = add_models(parser, spec.model)
     except Exception as exc:
         raise SceneError(f"cannot load robot model: {exc}", source=str(spec.model)) from None
     try:
@@ -517,7 +574,7 @@ def _build(world: WorldState, odb: ObjectDatabase, config: SimConfig, extras: Se
             body_names[index] = f"{world.robot.name}/{plant.get_body(index).name()}"
     desired = forces = None
     if instance is not None and plant.num_actuated_dofs(instance) > 0:
-        desired = builder.AddSystem(DesiredState(plant.num_actuated_dofs(instance)))
+        desired = builder.AddSystem(desired_state_source(plant.num_actuated_dofs(instance)))
         builder.Connect(desired.get_output_port(), plant.get_desired_state_input_port(instance))
     if bodies:
         forces = builder.AddSystem(ConstantForces(list(bodies.items())))

@@ -155,6 +155,8 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     plant_ctx = plant.GetMyMutableContextFromRoot(context)
     end = options.end if options.end is not None else (telemetry.end if telemetry is not None else 0.0) + options.settle
     times = sample_times(end, options.sample_rate)
+    # where the telemetry has the robot at each sample, for the tracking check (one vectorised lookup)
+    commanded = telemetry.sample(times)[:, cols] if cols is not None else None
     names = list(scene.bodies)
     tracks = {name: np.zeros((len(times), 7)) for name in names}
     robot = world.robot.name if world.robot is not None else None
@@ -164,8 +166,9 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
     reader = ContactReader(scene) if read_contacts or options.final_contacts or sleeping else None
     force = np.zeros((len(times), 3)) if want_force else None
     joints = np.zeros((len(times), len(actuated))) if options.joint_track and actuated else None
-    supports = [(n, scene.odb.get(o.type).geometry, o.pose) for n, o in world.objects.items()
-                if scene.odb.get(o.type).fixed and scene.odb.get(o.type).geometry is not None]
+    # each fixture with the height of its bottom (`_check_support`)
+    supports = [(n, g, o.pose, z_range(g, o.pose)[0]) for n, o in world.objects.items()
+                if scene.odb.get(o.type).fixed and (g := scene.odb.get(o.type).geometry) is not None]
     log: list[Contact] = []
     worst, lag_since = 0.0, None
     simulator = Simulator(scene.diagram, context)
@@ -233,7 +236,7 @@ def simulate(scene: Scene, telemetry: Telemetry | None, *, world: WorldState | N
             if joints is not None:
                 joints[k] = q_now
             if cols is not None and t <= telemetry.end and not kinematic:  # kinematic: on its desired trajectory
-                err = np.abs(q_now - telemetry.sample(t)[cols])
+                err = np.abs(q_now - commanded[k])
                 j = int(np.argmax(err))
                 worst = max(worst, float(err[j]))
                 if not policy.check_tracking:
@@ -370,8 +373,7 @@ def _moved(track: np.ndarray) -> bool:
 
 def _check_support(name: str, pose: Pose, supports, t: float) -> None:
     """An object below a fixture's bottom inside its footprint went through it; below -5 m it fell out."""
-    for support, geometry, support_pose in supports:
-        low, _ = z_range(geometry, support_pose)
+    for support, geometry, support_pose, low in supports:
         if pose.xyz[2] < low and contains_xy(geometry, support_pose, pose.position, margin=0.02):
             raise SimulationFailure(f"object {name!r} went through {support!r} at t = {t:.2f} s (contact too soft, "
                                     "or time step too large)")

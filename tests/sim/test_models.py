@@ -104,3 +104,27 @@ def test_pusher2d_joints_actuators_limits_and_tip():
     np.testing.assert_allclose(tip, [0.1, -0.2, 0.0064], atol=1e-12)
     rod = plant.GetBodyByName("pusher_rod", instance)
     assert rod.default_mass() == pytest.approx(0.1)
+
+
+def test_add_models_reads_the_same_model_from_text_and_resolves_a_mesh_beside_its_file(tmp_path, monkeypatch):
+    """`scene.add_models` parses a self-contained model from its text (libsdformat rebuilds its schema for every
+    file it loads) and one that names a mesh from its file, so the mesh's relative path resolves beside it."""
+    from bridge.sim.scene import add_models
+
+    def joints(path):
+        plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.002), DiagramBuilder())
+        (instance,) = add_models(Parser(plant, "r"), path)
+        plant.Finalize()
+        return sorted(plant.get_joint(j).name() for j in plant.GetJointIndices(instance)), plant.num_actuators()
+
+    assert joints(PUSHER_SDF) == (["pusher_base", "pusher_x", "pusher_y"], 2)  # the base floats: not welded here
+    folder = tmp_path / "model"
+    folder.mkdir()
+    (folder / "cube.obj").write_text("v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    text = PUSHER_SDF.read_text().replace(
+        "<geometry><cylinder><radius>0.00476</radius><length>0.010</length></cylinder></geometry>",
+        "<geometry><mesh><uri>cube.obj</uri></mesh></geometry>", 1)  # rigid hydroelastic: Drake reads it
+    assert "cube.obj" in text
+    (folder / "meshed.sdf").write_text(text)
+    monkeypatch.chdir(tmp_path)  # not beside the mesh: only the file's folder resolves it
+    assert joints(folder / "meshed.sdf") == (["pusher_base", "pusher_x", "pusher_y"], 2)  # the base floats: not welded here

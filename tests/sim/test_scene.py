@@ -1,6 +1,6 @@
 """The scene builder's promise: one diagram per scene structure, everything a replay varies (values, initial
-poses, the robot's desired trajectory) written into a fresh context, so a fit never rebuilds the diagram, one
-diagram serves two replays at once, and nothing of one replay stays behind for the next. Bad input is one
+poses) written into a fresh context and the robot's desired trajectory into the diagram's source at the
+replay's start, so a fit never rebuilds the diagram and nothing of one replay stays behind for the next. Bad input is one
 `SceneError` that names what is wrong and the valid choices."""
 from __future__ import annotations
 
@@ -10,8 +10,6 @@ import numpy as np
 import pytest
 
 pytest.importorskip("pydrake")
-
-from pydrake.systems.analysis import Simulator  # noqa: E402
 
 from bridge.errors import SceneError  # noqa: E402
 from bridge.fit.synthetic import push_telemetries, push_world  # noqa: E402
@@ -90,45 +88,37 @@ def test_new_context_writes_the_worlds_poses_not_the_scenes(scene, world):
     assert X.xyz == pytest.approx(world.objects["big_box"].pose.xyz)  # the scene's own world is untouched
 
 
-def _start(scene, telemetry):
-    """A context replaying `telemetry` as `simulate` starts one: desired trajectory set, robot at its start."""
-    context = scene.new_context()
-    cols = scene.actuator_columns(telemetry.joint_names)
-    scene.set_desired(context, telemetry.times, telemetry.positions[:, cols])
-    start = dict(zip(telemetry.joint_names, telemetry.sample(0.0)))
-    scene.plant.SetPositions(scene.plant.GetMyMutableContextFromRoot(context), scene.robot_instance,
-                             scene.robot_positions(start))
-    simulator = Simulator(scene.diagram, context)
-    simulator.Initialize()
-    return context, simulator, cols
-
-
-def test_two_replays_of_one_diagram_run_side_by_side(scene, telemetries):
-    """The desired trajectory lives in the context (Drake's TrajectorySource would keep it in the diagram): two
-    replays advanced alternately, step by step, each follow their own telemetry and end exactly where each
-    ends alone."""
+def test_a_replay_follows_its_own_telemetry_whatever_ran_before(scene, telemetries):
+    """The desired trajectory is set in the diagram's source at each replay's start (`sources.set_desired`):
+    a replay after one of other telemetry follows its own, bit for bit as it does alone."""
     slide, turn = telemetries["slide"], telemetries["turn"]
-    alone = {name: simulate(scene, tel, options=SimOptions(end=tel.end, sample_rate=50.0, sleep=False))
-             for name, tel in (("slide", slide), ("turn", turn))}
-    runs = {"slide": (slide, *_start(scene, slide)), "turn": (turn, *_start(scene, turn))}
-    actuated = scene.actuated_joints()
-    worst = {"slide": 0.0, "turn": 0.0}
-    apart = 0.0
-    for t in alone["slide"].times[1:]:
-        q = {}
-        for name, (tel, context, simulator, cols) in runs.items():
-            simulator.AdvanceTo(float(t))
-            plant_ctx = scene.plant.GetMyContextFromRoot(context)
-            q[name] = np.array([j.GetOnePosition(plant_ctx) for j in actuated])
-            worst[name] = max(worst[name], float(np.max(np.abs(q[name] - tel.sample(t)[cols]))))
-        apart = max(apart, float(np.max(np.abs(q["slide"] - q["turn"]))))
-    assert apart > 0.1  # the two robots really go different ways ...
-    assert worst["slide"] < 0.01 and worst["turn"] < 0.01  # ... and each follows its own telemetry
-    for name, (tel, context, simulator, cols) in runs.items():
-        plant_ctx = scene.plant.GetMyContextFromRoot(context)
-        for obj, body in scene.bodies.items():
-            X = from_drake(scene.plant.EvalBodyPoseInWorld(plant_ctx, body))
-            np.testing.assert_array_equal((*X.xyz, *X.quat), alone[name].tracks[obj][-1], err_msg=f"{name}: {obj}")
+    options = SimOptions(settle=SETTLE, joint_track=True)
+    alone = simulate(scene, slide, options=options)
+    other = simulate(scene, turn, options=options)
+    followed = turn.select(other.joint_names).sample(other.times)
+    assert np.max(np.abs(other.joint_track - followed)[other.times <= turn.end]) < 0.01  # turn follows turn ...
+    assert np.max(np.abs(other.joint_track - alone.joint_track)) > 0.1  # ... which goes elsewhere than slide
+    again = simulate(scene, slide, options=options)
+    for name, track in alone.tracks.items():
+        np.testing.assert_array_equal(again.tracks[name], track, err_msg=name)
+
+
+def test_each_thread_replays_on_scenes_of_its_own(world, odb, telemetries):
+    """A scene runs one replay at a time (its desired trajectory lives in the diagram), so the scene cache is
+    per thread: two threads replaying different telemetry at once get exactly their serial results."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from bridge.rollout.rollout import Rollout, run_rollout, scene_for
+
+    rollouts = [Rollout(world, telemetries[name]) for name in ("slide", "turn")]
+    options = SimOptions(settle=SETTLE)
+    serial = [run_rollout(r, odb, options) for r in rollouts]
+    with ThreadPoolExecutor(2) as pool:
+        both = list(pool.map(lambda r: (run_rollout(r, odb, options), scene_for(r, odb)), rollouts))
+    assert both[0][1] is not both[1][1] and scene_for(rollouts[0], odb) is not both[0][1]
+    for (result, _), alone in zip(both, serial):
+        for name, track in alone.tracks.items():
+            np.testing.assert_array_equal(result.tracks[name], track, err_msg=name)
 
 
 def _rotational_inertia_about_com(scene, context, name):
