@@ -106,7 +106,7 @@ def test_a_replay_follows_its_own_telemetry_whatever_ran_before(scene, telemetri
 def test_each_thread_replays_on_scenes_of_its_own(world, odb, telemetries):
     """A scene runs one replay at a time (its desired trajectory lives in the diagram), so the scene cache is
     per thread: two threads replaying different telemetry at once get their serial results (to round-off: run
-    concurrently, a clean clone's CI once differed by 2e-13 m; a shared scene would follow the other telemetry)."""
+    at once, they once differed by 2e-13 m, docs/rollout.md; a shared scene follows the other telemetry)."""
     from concurrent.futures import ThreadPoolExecutor
 
     from bridge.rollout.rollout import Rollout, run_rollout, scene_for
