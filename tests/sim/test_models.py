@@ -127,4 +127,4 @@ def test_add_models_reads_the_same_model_from_text_and_resolves_a_mesh_beside_it
     assert "cube.obj" in text
     (folder / "meshed.sdf").write_text(text)
     monkeypatch.chdir(tmp_path)  # not beside the mesh: only the file's folder resolves it
-    assert joints(folder / "meshed.sdf") == (["pusher_base", "pusher_x", "pusher_y"], 2)  # the base floats: not welded here
+    assert joints(folder / "meshed.sdf") == (["pusher_base", "pusher_x", "pusher_y"], 2)

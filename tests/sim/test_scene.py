@@ -1,7 +1,7 @@
 """The scene builder's promise: one diagram per scene structure, everything a replay varies (values, initial
 poses) written into a fresh context and the robot's desired trajectory into the diagram's source at the
-replay's start, so a fit never rebuilds the diagram and nothing of one replay stays behind for the next. Bad input is one
-`SceneError` that names what is wrong and the valid choices."""
+replay's start, so a fit never rebuilds the diagram and nothing of one replay stays behind for the next. Bad
+input is one `SceneError` that names what is wrong and the valid choices."""
 from __future__ import annotations
 
 import math
