@@ -29,7 +29,12 @@ def check_type(odb: ObjectDatabase, type_name: str, config: SimConfig = SimConfi
         field = type_name
     try:
         _build(world, odb, config, (), None).new_context()
-    except (SceneError, RuntimeError, ValueError) as exc:
+    except SceneError as exc:
+        if exc.field == field:  # it names this entry already (a robot model Drake cannot load)
+            raise ObjectDatabaseError(exc.message, source=str(t.source), field=field) from None
+        raise ObjectDatabaseError(f"Drake cannot build an object of this type: {str(exc).splitlines()[0]}",
+                                  source=str(t.source), field=field) from None
+    except (RuntimeError, ValueError) as exc:
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ObjectDatabaseError(f"Drake cannot build an object of this type: {message}", source=str(t.source),
                                   field=field) from None

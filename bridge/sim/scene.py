@@ -472,6 +472,7 @@ def add_floor(plant, config: SimConfig, height: float = 0.0) -> None:
 # a model that names another file (a mesh, an included model, a package) is parsed from its file, where Drake
 # resolves those names against the file's folder
 _NAMES_FILES = re.compile(r"<uri|<include|filename\s*=|package://|file://|model://")
+_TEXT_NAME = re.compile(r"<(?:data|literal)-string>(?:\.\w+)?")  # what Drake calls a model parsed from text
 
 
 def add_models(parser: Parser, path: str | Path) -> list:
@@ -488,17 +489,22 @@ def add_models(parser: Parser, path: str | Path) -> list:
         except (OSError, UnicodeDecodeError):
             text = None  # Drake says what is wrong with the file
         if text is not None and not _NAMES_FILES.search(text):
-            return parser.AddModelsFromString(text, suffix)
+            try:
+                return parser.AddModelsFromString(text, suffix)
+            except RuntimeError as exc:  # Drake calls the text "<data-string>": the file, as AddModels would say
+                raise RuntimeError(_TEXT_NAME.sub(str(path), str(exc))) from None
     return parser.AddModels(str(path))
 
 
 def add_robot(plant, world: WorldState, odb: ObjectDatabase):
-    spec = odb.get(world.robot.type).robot
+    robot_type = odb.get(world.robot.type)
+    spec = robot_type.robot
     parser = Parser(plant, world.robot.name)
     try:
         (instance,) = add_models(parser, spec.model)
-    except Exception as exc:
-        raise SceneError(f"cannot load robot model: {exc}", source=str(spec.model)) from None
+    except Exception as exc:  # named by the database's entry, as `bridge check` names it (`checks.check_type`)
+        raise SceneError(f"cannot load robot model {spec.model}: {str(exc).splitlines()[0] if str(exc) else exc!r}",
+                         source=str(robot_type.source), field=f"{robot_type.name}.robot.model") from None
     try:
         base = plant.GetBodyByName(spec.base_link, instance)
     except Exception:

@@ -156,6 +156,16 @@ def gripper_tcp_frame_unknown(s):
     return Planted((path, "demo_arm.robot.gripper.tcp_frame", "'tool'"), [s.rec], s.infer())
 
 
+def robot_model_broken(s):
+    # well-formed XML that Drake refuses (a joint's parent link does not exist); the model is parsed from its text
+    # (`scene.add_models`), where Drake's own message names no file: the error line must
+    model = s.odb / "types" / "broken_arm.sdf"
+    model.write_text((REPO / "models" / "arm7" / "arm7.sdf").read_text().replace(
+        "<parent>arm_link1</parent>", "<parent>arm_link_missing</parent>", 1))
+    edit(s.odb / "types" / "robots.yaml", f"model: {REPO / 'models' / 'arm7' / 'arm7.sdf'}", "model: broken_arm.sdf")
+    return Planted(("broken_arm.sdf", "cannot load robot model"), [s.rec], s.infer())
+
+
 # --- recordings and world states --------------------------------------------------------------------------------
 def world_robot_joint_unknown(s):
     path = edit(s.rec / "world.yaml", "pose: {xyz: [0.0, 0.0, 0.75]}}", "pose: {xyz: [0.0, 0.0, 0.75]}, "
@@ -249,7 +259,7 @@ CASES: list[Callable[[Setup], Planted]] = [
     sie_parameter_misspelled, sie_parameter_missing, sie_parameter_value_refused, sie_class_missing,
     negative_mass, inertia_breaks_triangle_inequality, inertia_negative_moment, garbage_mesh, mesh_with_bad_face,
     mesh_without_volume, fixture_garbage_mesh,
-    robot_base_link_unknown, gripper_finger_link_unknown, gripper_tcp_frame_unknown,
+    robot_base_link_unknown, gripper_finger_link_unknown, gripper_tcp_frame_unknown, robot_model_broken,
     world_robot_joint_unknown, world_file_unknown_type, telemetry_joint_the_robot_lacks, telemetry_lacks_a_robot_joint,
     observed_object_unknown, no_such_recording,
     scene_target_names_no_object, scene_target_unknown_robot_link, params_target_unknown_robot,

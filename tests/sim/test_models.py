@@ -128,3 +128,17 @@ def test_add_models_reads_the_same_model_from_text_and_resolves_a_mesh_beside_it
     (folder / "meshed.sdf").write_text(text)
     monkeypatch.chdir(tmp_path)  # not beside the mesh: only the file's folder resolves it
     assert joints(folder / "meshed.sdf") == (["pusher_base", "pusher_x", "pusher_y"], 2)
+
+
+def test_a_model_parsed_from_its_text_is_named_by_its_file_in_drakes_error(tmp_path):
+    """Drake calls a model parsed from text "<data-string>"; `add_models` puts the file's path there, as a parse of
+    the file would."""
+    from bridge.sim.scene import add_models
+
+    broken = tmp_path / "broken.sdf"
+    broken.write_text(PUSHER_SDF.read_text().replace("<mass>0.1</mass>", "<mass>heavy</mass>", 1))
+    plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.002), DiagramBuilder())
+    with pytest.raises(RuntimeError) as err:
+        add_models(Parser(plant, "r"), broken)
+    assert str(err.value).startswith(f"{broken}:") and "<mass>" in str(err.value)
+    assert "-string>" not in str(err.value)
