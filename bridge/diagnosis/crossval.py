@@ -28,6 +28,7 @@ it by up to 35 %: an ordinary model's floor set too high favours every effect (d
 """
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -190,10 +191,16 @@ def _checked(ev: Evaluator, result: FitResult, left: list[LeftOut]) -> dict[int,
     done: dict[int, tuple[Run, np.ndarray]] = {}
     while pending:
         keys = list(pending)
-        runs = ev.runs_many([space.model(space.from_normal(pending[k].x)) for k in keys])
+        # a step fails once the others' chi^2 alone exceeds what it may be: their replays stop there (the left-out
+        # recording is replayed last, only for a step that passes)
+        others = [[j for j in range(len(base)) if j != k] for k in keys]
+        bounds = [sum(base[j] for j in js) + prior - PRIOR * float(pending[k].x @ pending[k].x)
+                  - ACCEPT * pending[k].promised for k, js in zip(keys, others)]
+        runs = ev.runs_within([space.model(space.from_normal(pending[k].x)) for k in keys], bounds, others)
         for k, rs in zip(keys, runs):
             lo = pending.pop(k)
-            fell = sum(base[j] - rs[j].chi2 for j in range(len(rs)) if j != k) + prior - PRIOR * float(lo.x @ lo.x)
+            fell = -math.inf if rs is None else \
+                sum(base[j] - rs[j].chi2 for j in range(len(rs)) if j != k) + prior - PRIOR * float(lo.x @ lo.x)
             if fell >= ACCEPT * lo.promised:
                 done[k] = rs[k], lo.x
             elif halvings[k] > 0:

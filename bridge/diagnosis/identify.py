@@ -353,12 +353,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         if not starts:
             screened.append(Candidate(c.effect, c.target, c.prior, math.inf, {}, "no seed from the localisation"))
             continue
-        ev.runs_many([_model(space, x) for x in starts])  # one batch on the workers
-        chis = [ev.chi2(_model(space, x)) for x in starts]
-        x, chi2 = starts[int(np.argmin(chis))], float(min(chis))
+        x, chi2 = _best_start(ev, space, starts)  # one batch on the workers
         ordinary = effect_friction
         if any(p.kind.contact_model for p in friction_params):  # the same point at the database's contact
-            at_database = ev.chi2(_model(_space(database_friction, effect, c.target, world, odb, held), x))
+            at_database = _chi2_below(ev, _model(_space(database_friction, effect, c.target, world, odb, held), x),
+                                      chi2)
             if at_database < chi2:
                 ordinary, chi2 = database_friction, at_database
         region = effect.fit_region(space.as_dict(space.from_normal(x)), c.target)
@@ -407,7 +406,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
         x_f = base_space.to_normal(frictions)
-        if ev.chi2(_model(base_space, x_f)) < fits[("friction", None)].chi2:
+        if _chi2_below(ev, _model(base_space, x_f), fits[("friction", None)].chi2) < fits[("friction", None)].chi2:
             base_fit = fit(ev, base_space, x_f, max_iterations=FRICTION_EXTRA, optimizer=options.optimizer,
                            should_stop=limit.expired)
             fitted[1] = _held_out(runner, held_out, [_from_fit("friction", None, base_fit, world, odb)])[0]
@@ -519,10 +518,24 @@ def _fit_effect(runner: Runner, ev: Evaluator, space: ParameterSet, starts: Sequ
                 ) -> tuple[FitResult, Scored]:
     """An effect fitted fully from the best of `starts`, with its predictions of the held-out recordings."""
     world, odb = runner.prepared[ev.indices[0]].world, runner.odb
-    chis = [ev.chi2(_model(space, x)) for x in starts]
-    result = fit(ev, space, starts[int(np.argmin(chis))], max_iterations=options.max_iterations,
+    result = fit(ev, space, _best_start(ev, space, starts)[0], max_iterations=options.max_iterations,
                  optimizer=options.optimizer, should_stop=limit.expired)
     return result, _held_out(runner, held_out, [_from_fit(effect, target, result, world, odb, measured)])[0]
+
+
+def _best_start(ev: Evaluator, space: ParameterSet, starts: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
+    """The start of least chi^2 (the first of equals) and its chi^2; the others' replays cut once they cannot be
+    (`Evaluator.runs_below`)."""
+    models = [_model(space, x) for x in starts]
+    chis = [math.inf if r is None else ev.chi2(m) for m, r in zip(models, ev.runs_below(models))]
+    best = int(np.argmin(chis))
+    return starts[best], chis[best]
+
+
+def _chi2_below(ev: Evaluator, model: Model, bound: float) -> float:
+    """chi^2 of `model`, or inf once its replays show it above `bound` (a model kept only below it)."""
+    runs = ev.runs_below([model], bound)[0]
+    return math.inf if runs is None else ev.chi2(model)
 
 
 def _database_contact(fitted: ParameterSet, friction: Sequence[Parameter]) -> list[Parameter] | None:

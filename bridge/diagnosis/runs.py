@@ -19,7 +19,7 @@ from ..errors import DiagnosisError
 from ..odb import ObjectDatabase
 from ..params import Model, trial_rollout
 from ..rollout.compare import failed_residual, pose_residual, sample_track
-from ..rollout.executors import Executor
+from ..rollout.executors import Executor, expected_seconds
 from ..rollout.rollout import Job, Outcome
 from ..rollout.trials import Trial
 from ..sim.simulate import SimOptions
@@ -29,6 +29,8 @@ from .residuals import (ForceSeries, ObservedSeries, force_normalised, force_res
 
 SAMPLE_RATE = 50.0  # Hz at which the simulation is sampled
 FAILED_FORCE = 1.0e3  # N per component of a failed replay's force residual
+EXCEEDS = 1e-9  # relative: a model's replays are cut only once their chi^2 is this far above a bound, so that
+#                 summing it in another order cannot put the model back below it (`Runner.run_bounded`)
 COARSE_STEP = 0.003  # s: the time step a diagnosis replays at when its error is small against the mismatch
 STEP_SHARE = 0.01  # ... at most this share of the nominal model's chi^2 above the noise (`choose_time_step`)
 QUASI_STATIC_SPEEDS = (0.04, 0.025)  # m/s: a slower recording is replayed at the first of these that changes it
@@ -187,6 +189,44 @@ class Runner:
         self.wall += sum(r.wall for r in runs)
         return runs
 
+    def run_bounded(self, models: Sequence[Model], indices: Sequence[int], bounds: Sequence[float], *,
+                    counted: Sequence[Sequence[int]] | None = None, race: bool = False,
+                    first: Sequence[Sequence[int]] | None = None) -> list[list[Run] | None]:
+        """runs[m] over `indices` as `run_many`, or None for a model whose replays were cut short once the chi^2
+        of those finished, over its positions `counted[m]` (default: all), exceeded `bounds[m]`; in a `race`, also
+        once it exceeded the least chi^2 of a model run in full. A search that only keeps a model below such a
+        bound (a step that must lower chi^2, the best of several starts) gets exactly its answer, without the
+        replays of the models it would discard. The models run one after the other, each its recordings in the
+        order `first[m]` (positions; default longest first): those most likely to exceed the bound first."""
+        k = len(indices)
+        counted = [range(k)] * len(models) if counted is None else counted
+        weights = [np.isin(np.arange(k), list(c)) for c in counted]
+        jobs = [self.job(tuple(m), i) for m in models for i in indices]
+        longest = sorted(range(k), key=lambda j: -expected_seconds(jobs[j]))
+        sequence = [m * k + j for m in range(len(models)) for j in (first[m] if first is not None else longest)]
+        partial = [0.0] * len(models)
+        left = [k] * len(models)
+        runs: list[Run | None] = [None] * len(jobs)
+        best = [math.inf]
+
+        def told(position: int, outcome: Outcome) -> list[int]:
+            p = sequence[position]
+            m, j = divmod(p, k)
+            if outcome.failed:
+                self.failures.append((self.prepared[indices[j]].name, outcome.failure))
+            runs[p] = run_of(self.prepared[indices[j]], outcome)
+            left[m] -= 1
+            if weights[m][j]:
+                partial[m] += runs[p].chi2
+            if race and left[m] == 0:
+                best[0] = min(best[0], partial[m])
+            return [n for n in range(len(models))
+                    if left[n] and _above(partial[n], min(bounds[n], best[0] if race else math.inf))]
+        outcomes = self.executor.run_pruned([jobs[p] for p in sequence], [p // k for p in sequence], told)
+        self.simulations += sum(o is not None for o in outcomes)
+        self.wall += sum(r.wall for r in runs if r is not None)
+        return [None if left[m] else list(runs[m * k:(m + 1) * k]) for m in range(len(models))]
+
     def run(self, model: Model, indices: Sequence[int], *, tracks: bool = False, contacts: bool = False) -> list[Run]:
         return self.run_many([model], indices, tracks=tracks, contacts=contacts)[0]
 
@@ -224,6 +264,10 @@ class StepChoice:
         return {"time_step_s": self.time_step, "fine_s": self.fine, "coarse_s": self.coarse,
                 "share": None if self.share is None else float(f"{self.share:.4g}"), "failed": self.failed,
                 "asked": self.asked, "note": self.sentence()}
+
+
+def _above(chi2: float, bound: float) -> bool:
+    return chi2 > bound + EXCEEDS * (abs(bound) + 1.0)
 
 
 def _percent(share: float) -> str:

@@ -17,7 +17,7 @@ from ..optim import minimise
 from ..optim.lm import gauss_newton_step, jacobian, levenberg_marquardt
 from ..params import Model, ParameterSet, canonical_model
 from ..rollout.compare import DEFAULT_C, PoseError, error_of_residuals
-from .runs import Run, Runner, vector_of
+from .runs import Run, Runner, chi2_of, vector_of
 
 PATIENCE = 3  # Levenberg-Marquardt evaluations in a row that gain less than GAIN end a fit
 GAIN = 1e-3  # relative chi^2: a gain below this changes no comparison the diagnosis makes (MIN_GAIN is 20 %)
@@ -33,6 +33,7 @@ class Evaluator:
         self.runner, self.indices = runner, list(indices)
         self.cache: dict[Model, tuple[Run, ...]] = {}
         self.world = runner.prepared[self.indices[0]].world if self.indices else None
+        self._seconds: list[float] | None = None  # each recording's replay, simulated seconds (`telling`)
 
     def canonical(self, model: Model) -> Model:
         return canonical_model(model, self.world, self.runner.odb) if self.world is not None else tuple(model)
@@ -48,6 +49,56 @@ class Evaluator:
     def runs(self, model: Model) -> tuple[Run, ...]:
         return self.runs_many([model])[0]
 
+    def runs_below(self, models: Sequence[Model], bound: float = math.inf) -> list[tuple[Run, ...] | None]:
+        """The runs of the models that can be the least chi^2 below `bound` (the first of equals among them, as
+        with every model run); None for a model whose replays were cut once they showed it cannot
+        (`Runner.run_bounded`, a race). For searches that keep only such a model."""
+        keys = [self.canonical(m) for m in models]
+        best = min([bound] + [chi2_of(self.cache[k])[0] for k in keys if k in self.cache])
+        todo = [k for k in dict.fromkeys(keys) if k not in self.cache]
+        if todo:
+            runs = self.runner.run_bounded(todo, self.indices, [best] * len(todo), race=True,
+                                           first=[self.telling()] * len(todo))
+            for k, r in zip(todo, runs):
+                if r is not None:
+                    self.cache[k] = tuple(r)
+        return [self.cache.get(k) for k in keys]
+
+    def runs_within(self, models: Sequence[Model], bounds: Sequence[float], counted: Sequence[Sequence[int]]
+                    ) -> list[tuple[Run, ...] | None]:
+        """The runs of each model, or None for one whose replays were cut once the chi^2 over its positions
+        `counted[m]` exceeded `bounds[m]` (`Runner.run_bounded`): a test that a model passes only below it. The
+        positions not counted are replayed last, once the model has passed. A model asked for twice (two tests of
+        one point) is run in full."""
+        keys = [self.canonical(m) for m in models]
+        todo: dict[Model, int] = {}
+        for m, k in enumerate(keys):
+            if k not in self.cache:
+                todo.setdefault(k, m)
+        if todo:
+            order = self.telling()
+            ms = list(todo.values())
+            first = [[j for j in order if j in counted[m]] + [j for j in order if j not in counted[m]] for m in ms]
+            bound = [bounds[m] if keys.count(keys[m]) == 1 else math.inf for m in ms]
+            runs = self.runner.run_bounded([keys[m] for m in ms], self.indices, bound,
+                                           counted=[counted[m] for m in ms], first=first)
+            for m, r in zip(ms, runs):
+                if r is not None:
+                    self.cache[keys[m]] = tuple(r)
+        return [self.cache.get(k) for k in keys]
+
+    def telling(self) -> list[int]:
+        """The training recordings (positions) in the order that tells soonest whether a model exceeds a bound:
+        the best model so far's chi^2 per simulated second, largest first."""
+        from ..rollout.executors import expected_seconds
+
+        if not self.cache:
+            return list(range(len(self.indices)))
+        if self._seconds is None:
+            self._seconds = [expected_seconds(self.runner.job((), i)) for i in self.indices]
+        best = min(self.cache.values(), key=lambda runs: chi2_of(runs)[0])
+        return sorted(range(len(self.indices)), key=lambda j: -best[j].chi2 / max(self._seconds[j], 1e-3))
+
     def vector(self, model: Model) -> np.ndarray:
         return vector_of(self.runs(model))
 
@@ -59,6 +110,13 @@ class Evaluator:
         """The batch residual of `space` in normalised coordinates, for the optimisers."""
         def batch(xs: Sequence[np.ndarray]) -> list[np.ndarray]:
             return [vector_of(r) for r in self.runs_many([space.model(space.from_normal(x)) for x in xs])]
+        return batch
+
+    def bounded(self, space: ParameterSet):
+        """`residuals` for points a search keeps only below a chi^2 (`runs_below`): None for the others."""
+        def batch(xs: Sequence[np.ndarray], bound: float) -> list[np.ndarray | None]:
+            runs = self.runs_below([space.model(space.from_normal(x)) for x in xs], bound)
+            return [None if r is None else vector_of(r) for r in runs]
         return batch
 
 
@@ -176,7 +234,8 @@ def fit(ev: Evaluator, space: ParameterSet, x0: np.ndarray, *, max_iterations: i
     if optimizer == "lm":
         result = levenberg_marquardt(residuals, x0, lower, upper, max_iterations=max_iterations,
                                      should_stop=should_stop, secant=secant, patience=PATIENCE if secant else None,
-                                     gain=GAIN, final_jacobian=final_jacobian or not secant)
+                                     gain=GAIN, final_jacobian=final_jacobian or not secant,
+                                     bounded=ev.bounded(space))
         x, f, J, stopped = result.x, result.vector, result.jacobian, result.stopped
         if not result.differenced:
             return FitResult(space, x, f, J, ev.runs(space.model(space.from_normal(x))), len(ev.cache) - before,
@@ -208,19 +267,20 @@ def screen(ev: Evaluator, space: ParameterSet, x0: np.ndarray, free: Sequence[in
     lower, upper = space.normal_bounds()
     x0 = np.asarray(x0, dtype=float)
     if free is None:
-        return gauss_newton_step(ev.residuals(space), x0, lower, upper)
+        return gauss_newton_step(ev.residuals(space), x0, lower, upper, ev.bounded(space))
     free = list(free)
-    batch = ev.residuals(space)
+    batch, bounded = ev.residuals(space), ev.bounded(space)
 
-    def residuals(ys: Sequence[np.ndarray]) -> list[np.ndarray]:
-        points = []
+    def points(ys: Sequence[np.ndarray]) -> list[np.ndarray]:
+        out = []
         for y in ys:
             x = x0.copy()
             x[free] = y
-            points.append(x)
-        return batch(points)
+            out.append(x)
+        return out
 
-    y, chi2 = gauss_newton_step(residuals, x0[free], lower[free], upper[free])
+    y, chi2 = gauss_newton_step(lambda ys: batch(points(ys)), x0[free], lower[free], upper[free],
+                                lambda ys, bound: bounded(points(ys), bound))
     x = x0.copy()
     x[free] = y
     return x, chi2

@@ -24,6 +24,9 @@ FD_STEP = 1.0  # normalised units
 TRUST = 8.0  # normalised units: the longest Gauss-Newton step a screen takes (the linearisation holds a few)
 
 Residuals = Callable[[Sequence[np.ndarray]], list[np.ndarray]]
+# the same for points a search keeps only if their chi^2 is below a bound: None for a point shown to exceed it
+# before it was evaluated in full (`diagnosis.search.Evaluator.bounded`)
+Bounded = Callable[[Sequence[np.ndarray], float], list["np.ndarray | None"]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +70,7 @@ class _Flat(Exception):
 def levenberg_marquardt(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray, *,
                         max_iterations: int = 6, should_stop: Callable[[], bool] | None = None,
                         secant: bool = False, patience: int | None = None, gain: float = 1e-3,
-                        final_jacobian: bool = True) -> LeastSquares:
+                        final_jacobian: bool = True, bounded: Bounded | None = None) -> LeastSquares:
     """Minimise |residuals(x)|^2 from x0 within [lower, upper]; returns the best point evaluated, its residual and
     the (finite-difference) Jacobian there. `should_stop` is asked before every evaluation after the first: when it
     says so, the search ends with the best point so far (`stopped`; its Jacobian only if it was evaluated).
@@ -75,7 +78,10 @@ def levenberg_marquardt(residuals: Residuals, x0: np.ndarray, lower: np.ndarray,
     also ends once that many evaluations in a row have lowered the best chi^2 by less than `gain` (relative): the
     solver then only shrinks its trust region around a point it cannot improve on. `final_jacobian` False: the
     Jacobian at the best point is not differenced again; the secant estimate there is returned
-    (`differenced` False) for the caller to difference when it needs it."""
+    (`differenced` False) for the caller to difference when it needs it. `bounded`: a trial step is kept only if
+    it lowers chi^2 below the best so far (the trust-region solver's rule; the best so far is where it stands), so
+    its evaluation may stop once it exceeds that: the solver then sees a stand-in residual above the bound, which
+    it rejects as it would the true one (any rejected step shrinks the region alike), and takes the same path."""
     x0 = np.clip(np.asarray(x0, dtype=float), lower, upper)
     seen: dict[bytes, np.ndarray] = {}
     jacobians: dict[bytes, np.ndarray] = {}
@@ -94,7 +100,12 @@ def levenberg_marquardt(residuals: Residuals, x0: np.ndarray, lower: np.ndarray,
             check()
             if patience is not None and flat[1] >= patience:
                 raise _Flat
-            seen[key] = residuals([np.asarray(x, dtype=float)])[0]
+            point = np.asarray(x, dtype=float)
+            if bounded is not None and seen:
+                f = bounded([point], flat[0])[0]
+                seen[key] = f if f is not None else _stand_in(flat[0], next(iter(seen.values())).size)
+            else:
+                seen[key] = residuals([point])[0]
             c = float(seen[key] @ seen[key])
             if c < flat[0] * (1.0 - gain) or not math.isfinite(flat[0]):
                 flat[:] = [min(c, flat[0]), 0]
@@ -150,10 +161,16 @@ def _broyden(x: np.ndarray, f: np.ndarray, last: list) -> np.ndarray:
     return J_prev + np.outer((f - f_prev) - J_prev @ s, s) / float(s @ s)
 
 
-def gauss_newton_step(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray
-                      ) -> tuple[np.ndarray, float]:
+def _stand_in(bound: float, size: int) -> np.ndarray:
+    """A residual of `size` entries whose chi^2 exceeds `bound`: the stand-in for a point cut short above it."""
+    return np.full(size, math.sqrt((2.0 * bound + 1.0) / max(size, 1)))
+
+
+def gauss_newton_step(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                      bounded: Bounded | None = None) -> tuple[np.ndarray, float]:
     """A cheap screen from x0: one bounded Gauss-Newton step (and a shorter one), then, if neither lowers the
-    chi^2, steps of 1 and 3 units against the gradient; returns the best point and its chi^2."""
+    chi^2, steps of 1 and 3 units against the gradient; returns the best point and its chi^2. `bounded`: the
+    steps are evaluated only as far as it takes to know they cannot be the best (`Bounded`)."""
     f0 = residuals([x0])[0]
     c0 = float(f0 @ f0)
     J = jacobian(residuals, x0, f0, upper)
@@ -164,16 +181,20 @@ def gauss_newton_step(residuals: Residuals, x0: np.ndarray, lower: np.ndarray, u
     if length > TRUST:
         step *= TRUST / length
     best_x, best_c = x0, c0
+
+    def evaluated(tries: list[np.ndarray]) -> list[np.ndarray | None]:  # one batch: the workers run both
+        return residuals(tries) if bounded is None else bounded(tries, best_c)
+
     tries = [np.clip(x0 + step, lower, upper), np.clip(x0 + 0.3 * step, lower, upper)]
-    for x, f in zip(tries, residuals(tries)):  # one batch: the workers run both
-        if float(f @ f) < best_c:
+    for x, f in zip(tries, evaluated(tries)):
+        if f is not None and float(f @ f) < best_c:
             best_x, best_c = x, float(f @ f)
     if best_c < c0:
         return best_x, best_c
     g = -(J.T @ f0)
     g = g / (np.linalg.norm(g) or 1.0)
     tries = [np.clip(x0 + size * g, lower, upper) for size in (1.0, 3.0)]
-    for x, f in zip(tries, residuals(tries)):
-        if float(f @ f) < best_c:
+    for x, f in zip(tries, evaluated(tries)):
+        if f is not None and float(f @ f) < best_c:
             best_x, best_c = x, float(f @ f)
     return best_x, best_c

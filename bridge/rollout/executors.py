@@ -17,9 +17,9 @@ import multiprocessing
 import os
 from collections import deque
 from concurrent.futures import Executor as FuturesExecutor
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from ..errors import BridgeError
 from ..odb import ObjectDatabase, load_object_database
@@ -130,6 +130,54 @@ class Executor:
             else:
                 self.cache.cached += 1
                 out.append(served(held.get(ident) or done[ident], job))
+        return out
+
+    def run_pruned(self, jobs: Sequence[Job], groups: Sequence[int],
+                   told: Callable[[int, Outcome], Iterable[int]]) -> list[Outcome | None]:
+        """The jobs in the order given, a group of them dropped as soon as `told(position, outcome)`, called with
+        each outcome as it arrives, names it: the group's jobs not yet started are not simulated (None in their
+        place). Only a worker's worth of jobs is submitted ahead of the workers, so a dropped job costs nothing;
+        outcomes the cache holds are told at once. What was simulated is cached, dropped group or not: a caller
+        that needs a dropped model after all pays only for the replays that were cut."""
+        out: list[Outcome | None] = [None] * len(jobs)
+        dropped: set[int] = set()
+        ahead = 1 if self.kind == "serial" else self.workers + 1
+        queue = deque(range(len(jobs)))
+        running: dict[Future, tuple[int, str | None]] = {}
+
+        def tell(k: int, outcome: Outcome) -> None:
+            out[k] = outcome
+            dropped.update(told(k, outcome))
+        try:
+            while queue or running:
+                while queue and len(running) < ahead:
+                    k = queue.popleft()
+                    if groups[k] in dropped:
+                        continue
+                    key = job_key(jobs[k])
+                    held = self.cache.get(key)
+                    if held is not None:
+                        self.cache.cached += 1
+                        tell(k, served(held, jobs[k]))
+                    else:
+                        running[self.executor.submit(run_task, jobs[k], self.odb_ref)] = (k, key)
+                if not running:
+                    continue
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in done:
+                    k, key = running.pop(future)
+                    if future.cancelled():
+                        continue
+                    outcome = future.result()
+                    self.cache.simulated += 1
+                    self.cache.put(key, outcome)
+                    tell(k, outcome)
+                for future, (k, _) in list(running.items()):
+                    if groups[k] in dropped and future.cancel():
+                        del running[future]
+        finally:
+            for future in running:
+                future.cancel()
         return out
 
     def iterate(self, jobs: Sequence[Job]) -> Iterator[Outcome]:

@@ -188,3 +188,50 @@ def test_a_friction_range_that_excludes_the_truth_shows_as_a_fit_stopped_at_its_
     assert stopped.at_bound() == {"friction[surface]": pytest.approx(cap)}
     free = fit(ev, ParameterSet((full,)), np.zeros(1), max_iterations=8)
     assert free.at_bound() == {}
+
+
+def _fresh(runner: Runner, odb) -> Runner:
+    """The same recordings on a runner of its own (its own rollout cache: every replay counted)."""
+    return Runner(runner.prepared, odb, make_executor("serial", odb))
+
+
+@pytest.mark.slow
+def test_replays_of_a_model_that_cannot_be_kept_are_cut_short(friction_case, odb):
+    """Of two starts, the second (a surface ten times too rough) exceeds the first's chi^2 on its first recording:
+    its second replay is never simulated and it comes back as None; a bound below anything cuts a model after
+    one replay. A model run in full is exactly what `run` gives."""
+    runner = _fresh(friction_case[0], odb)
+    world = runner.prepared[0].world
+    p = Parameter.of("friction", "surface", world, odb)
+    good = ParameterSet((p,)).model([2 * p.start_value])
+    rough = ParameterSet((p,)).model([10 * p.start_value])
+    first, cut = runner.run_bounded([good, rough], [0, 1], [math.inf, math.inf], race=True, first=[[0, 1], [0, 1]])
+    assert cut is None and runner.simulations == 3
+    assert [r.chi2 for r in first] == [r.chi2 for r in runner.run(good, [0, 1])]
+    assert runner.run_bounded([rough], [0, 1], [0.0]) == [None] and runner.simulations == 2 + 3 + 1
+
+
+@pytest.mark.slow
+def test_a_fit_and_its_cross_validation_take_the_same_path_with_replays_cut(friction_case, odb, monkeypatch):
+    """The friction fit and the leave-one-out predictions of its recordings, once with the replays of rejected
+    steps cut (`Evaluator.runs_below`, `runs_within`) and once with every replay run in full: the same points,
+    the same predictions, bit for bit, and no more simulations."""
+    from bridge.diagnosis.crossval import predict_left_out
+
+    world = friction_case[0].prepared[0].world
+    space = ParameterSet(get_effect("friction").parameters(world, odb, "surface"))
+
+    def search(runner: Runner):
+        ev = Evaluator(runner, [0, 1])
+        result = fit(ev, space, np.zeros(space.dim), max_iterations=8)
+        _, runs, params = predict_left_out(runner, ev, result)
+        return result, [r.chi2 for r in runs], params, runner.simulations
+
+    cut = search(_fresh(friction_case[0], odb))
+    monkeypatch.setattr(Evaluator, "runs_below", lambda self, models, bound=math.inf: self.runs_many(models))
+    monkeypatch.setattr(Evaluator, "runs_within", lambda self, models, bounds, counted: self.runs_many(models))
+    full = search(_fresh(friction_case[0], odb))
+    assert np.array_equal(cut[0].x, full[0].x) and cut[0].chi2 == full[0].chi2
+    assert cut[0].evaluations == full[0].evaluations
+    assert cut[1:3] == full[1:3]
+    assert cut[3] <= full[3]
