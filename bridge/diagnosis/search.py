@@ -57,11 +57,8 @@ class Evaluator:
         best = min([bound] + [chi2_of(self.cache[k])[0] for k in keys if k in self.cache])
         todo = [k for k in dict.fromkeys(keys) if k not in self.cache]
         if todo:
-            runs = self.runner.run_bounded(todo, self.indices, [best] * len(todo), race=True,
-                                           first=[self.telling()] * len(todo))
-            for k, r in zip(todo, runs):
-                if r is not None:
-                    self.cache[k] = tuple(r)
+            self._keep(todo, self.runner.run_bounded(todo, self.indices, [best] * len(todo), race=True,
+                                                     first=[self.telling()] * len(todo)))
         return [self.cache.get(k) for k in keys]
 
     def runs_within(self, models: Sequence[Model], bounds: Sequence[float], counted: Sequence[Sequence[int]]
@@ -80,12 +77,13 @@ class Evaluator:
             ms = list(todo.values())
             first = [[j for j in order if j in counted[m]] + [j for j in order if j not in counted[m]] for m in ms]
             bound = [bounds[m] if keys.count(keys[m]) == 1 else math.inf for m in ms]
-            runs = self.runner.run_bounded([keys[m] for m in ms], self.indices, bound,
-                                           counted=[counted[m] for m in ms], first=first)
-            for m, r in zip(ms, runs):
-                if r is not None:
-                    self.cache[keys[m]] = tuple(r)
+            self._keep(list(todo), self.runner.run_bounded(list(todo), self.indices, bound,
+                                                           counted=[counted[m] for m in ms], first=first))
         return [self.cache.get(k) for k in keys]
+
+    def _keep(self, keys: Sequence[Model], runs: Sequence[Sequence[Run] | None]) -> None:
+        """Cache the models run in full (a model cut short is not: its runs are not all there)."""
+        self.cache.update((k, tuple(r)) for k, r in zip(keys, runs) if r is not None)
 
     def telling(self) -> list[int]:
         """The training recordings (positions) in the order that tells soonest whether a model exceeds a bound:
