@@ -192,6 +192,8 @@ def diagnose_fold(trials: list, train: list[int], odb, workers: int) -> tuple[tu
     entry = {"verdict": ident.verdict, "params": winner.get("params", {}),
              "params_range": (winner.get("cv") or {}).get("params_range", {}), "model": winner.get("model", []),
              "stability": stability.get("agree"), "selections": stability.get("selections"),
+             "floor": (data.get("cross_validation") or {}).get("floor"),
+             "cross_validated": {e["effect"]: e["cv"]["rms_sigma_each"] for e in data["effects"] if e.get("cv")},
              "simulations": data["simulations"], "wall_s": round(time.perf_counter() - started, 1)}
     return ident.model(), entry
 

@@ -85,6 +85,13 @@ class Prediction:
         compared = self._compared(floor)
         return sum(c < b for c, b, _ in compared), len(compared)
 
+    def weakest(self, floor: "Prediction") -> tuple[str, float] | None:
+        """(the recording without which `compare` is least, that share): a gain that one recording carries is gone
+        without it, while one the recordings share survives any one left out (a jackknife of the gain; None with
+        no recording compared). A recording at the noise floor under both models is a tie either way."""
+        shares = {name: self.without(name).compare(floor.without(name)) for name in self.each if name in floor.each}
+        return min(shares.items(), key=lambda kv: kv[1]) if shares else None
+
     def spread(self) -> dict[str, tuple[float, float]]:
         """(least, greatest) of each parameter over the fits that predicted the recordings: how far the refits
         without one recording moved it. A finding that a single recording carries moves when that one is left out."""

@@ -961,6 +961,12 @@ def _cv_reason(s: Scored, floor: Scored) -> str | None:
         return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
                 f"fitted on ({_better_in(s, floor)}; cross-validated, the geometric mean over the recordings; "
                 + (f"at least {100 * needed:.0f} % needed)" if needed else "a measured effect must not predict worse)"))
+    weakest = s.cv.weakest(floor.cv) if needed else None  # a measured effect is evidenced by its measurement
+    if weakest is not None and weakest[1] < needed:
+        name, least = weakest
+        return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
+                f"fitted on ({_better_in(s, floor)}), but {100 * least:.0f} % without {name}: one recording "
+                f"carries the gain (at least {100 * needed:.0f} % needed with any one left out)")
     return None
 
 
@@ -993,7 +999,9 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
       chi^2 above the noise floor (NEAR_NOISE_GAIN when that model is already within NOISE_RMS of the floor);
     - cross-validated (`crossval`: every recording predicted by the model fitted without it), it removes at
       least CV_GAIN of the chi^2 above the noise that the floor leaves on those predictions (`compare`: the
-      geometric mean of the per-recording ratios, so every recording weighs alike);
+      geometric mean of the per-recording ratios, so every recording weighs alike), and still does with any one
+      recording left out (`Prediction.weakest`): a model fitted without a recording predicts it only from what
+      the others show, so a gain that one recording carries is no prediction;
     - an effect whose parameters the recordings measure before any simulation (`Scored.measured`: a rod offset,
       a latency from the contact gaps, `_measured`) is evidenced by that measurement; of the simulation it needs
       only not to predict worse (both gains above zero instead of MIN_GAIN and CV_GAIN): where the world differs
