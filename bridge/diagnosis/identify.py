@@ -957,16 +957,17 @@ def _cv_reason(s: Scored, floor: Scored) -> str | None:
     if floor.cv.excess() <= 0.0:
         return f"{floor.effect} already predicts every recording it was not fitted on to the noise floor"
     share, needed = s.cv.compare(floor.cv), (0.0 if s.measured else CV_GAIN)
+    head = (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was fitted "
+            f"on ({_better_in(s, floor)}")
     if share < needed:
-        return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
-                f"fitted on ({_better_in(s, floor)}; cross-validated, the geometric mean over the recordings; "
-                + (f"at least {100 * needed:.0f} % needed)" if needed else "a measured effect must not predict worse)"))
+        return head + ("; cross-validated, the geometric mean over the recordings; "
+                       + (f"at least {100 * needed:.0f} % needed)" if needed else
+                          "a measured effect must not predict worse)"))
     weakest = s.cv.weakest(floor.cv) if needed else None  # a measured effect is evidenced by its measurement
     if weakest is not None and weakest[1] < needed:
         name, least = weakest
-        return (f"{s.effect} removes {100 * share:.0f} % of what {floor.effect} leaves on recordings neither was "
-                f"fitted on ({_better_in(s, floor)}), but {100 * least:.0f} % without {name}: one recording "
-                f"carries the gain (at least {100 * needed:.0f} % needed with any one left out)")
+        return head + (f"), but {100 * least:.0f} % without {name}: one recording carries the gain (at least "
+                       f"{100 * needed:.0f} % needed with any one left out)")
     return None
 
 
