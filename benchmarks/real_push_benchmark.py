@@ -193,6 +193,7 @@ def diagnose_fold(trials: list, train: list[int], odb, workers: int) -> tuple[tu
              "params_range": (winner.get("cv") or {}).get("params_range", {}), "model": winner.get("model", []),
              "stability": stability.get("agree"), "selections": stability.get("selections"),
              "floor": (data.get("cross_validation") or {}).get("floor"),
+             "alike": [a["effect"] for a in (data.get("cross_validation") or {}).get("alike", [])],
              "cross_validated": {e["effect"]: e["cv"]["rms_sigma_each"] for e in data["effects"] if e.get("cv")},
              "simulations": data["simulations"], "wall_s": round(time.perf_counter() - started, 1)}
     return ident.model(), entry
@@ -374,6 +375,21 @@ def summarise(rows: list[dict]) -> dict:
     return out
 
 
+def supported_text(diagnosed: list[dict]) -> str:
+    """The folds' verdicts, and the effects each fold supports: its verdict and the effects its recordings did not
+    tell apart from it (`alike`). A verdict that wanders between effects the folds support alike is one answer
+    with rivals, not several answers; an effect supported in more than half of the folds is the shape's answer."""
+    verdicts = [d["verdict"] for d in diagnosed]
+    top, count = Counter(verdicts).most_common(1)[0]
+    text = (f"{', '.join(verdicts)}: {top} in {count} of {len(verdicts)} folds"
+            + ("" if 2 * count > len(verdicts) else " (not stable)"))
+    support = Counter(e for d in diagnosed for e in {d["verdict"], *d.get("alike", [])})
+    if any(d.get("alike") for d in diagnosed):
+        text += "; supported (the verdict or alike with it): " + ", ".join(
+            f"{e} in {c}" for e, c in support.most_common())
+    return text
+
+
 def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
     columns = [c for c in COLUMNS if c != "drake_fit" or drake_fit]  # drake_ps: shown where it was run
     print("\nheld-out error per push: median / p90 (final pose: mm, deg; trajectory: the paper's e_t mm, e_R deg)")
@@ -401,11 +417,9 @@ def print_table(summary: dict, fits: dict, drake_fit: bool) -> None:
             read = ", ".join(f"{c['recorded']['coefficient']:.3f}" for c in cones)
             line += f"; rod friction read from the force {read} (replays " + ", ".join(
                 f"{c['replayed']['coefficient']:.3f}" for c in cones) + ")"
-        verdicts = [f["diagnosis"]["verdict"] for f in fit["folds"] if "diagnosis" in f]
-        if verdicts:
-            top, count = Counter(verdicts).most_common(1)[0]
-            line += (f"; diagnosis {', '.join(verdicts)}: {top} in {count} of {len(verdicts)} folds"
-                     + ("" if 2 * count > len(verdicts) else " (not stable)"))
+        diagnosed = [f["diagnosis"] for f in fit["folds"] if "diagnosis" in f]
+        if diagnosed:
+            line += "; diagnosis " + supported_text(diagnosed)
         if any("drake_values" in f for f in fit["folds"]):
             line += "; Drake " + "; ".join(", ".join(f"{k.split('[')[1][:-1]} {v:.2f}" for k, v in f["drake_values"].items())
                                            for f in fit["folds"] if "drake_values" in f)

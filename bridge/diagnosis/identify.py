@@ -40,7 +40,7 @@ from ..timelimit import STOPPED, TimeLimit
 from .effects import EFFECTS, Evidence, get_effect
 from .effects.base import Effect, pname
 from .cone import RodReading, contact_friction, rod_reading
-from .crossval import Prediction, Stability, predict_left_out, prediction
+from .crossval import ALIKE_P, Prediction, Stability, predict_left_out, prediction
 from .effects.object_scale import outline_radius
 from .loader import NEGLIGIBLE, NOISE_SIGMAS, ContactFit, LoaderEvidence, read_adjustments
 from .locate import Localisation, locate
@@ -188,6 +188,7 @@ class Identification:
     stability: Stability | None = None  # the verdict with each recording left out of the cross-validation
     rod: RodReading | None = None  # the rod's friction the force's direction reads, against the friction model's
     support: SupportReading | None = None  # the footprint scale the force and the twist read, against the verdict's
+    alike: tuple["Alike", ...] = ()  # accepted effects the recordings do not tell apart from the verdict (`_alike`)
 
     @property
     def partial(self) -> bool:
@@ -494,7 +495,11 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     if stability is not None:
         notes.append(stability.sentence())
         say(notes[-1])
+    alike = _alike(scored, verdict, world, odb)
     scored = _rank(scored, verdict, floor)
+    if alike:
+        notes.append(_alike_sentence(alike, next(s for s in scored if s.effect == verdict), floor.effect))
+        say(notes[-1])
     scored = _winner_uncertainty(ev, scored, verdict, fits, tau)
     weight = _weight_note(next(s for s in scored if s.effect == verdict), loc, world, odb)
     if weight:
@@ -510,7 +515,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
     return Identification(verdict, tuple(scored), loc, _names(runner, train), _names(runner, held_out), tau,
                           tuple(screened), tuple(notes), runner.simulations - sims0, time.perf_counter() - started,
                           held_loc, stopped, loader, rollouts(), floor.effect if floor.cv is not None else None, frame,
-                          work, stability, rod, _against_verdict(support, scored, verdict, focus[0]))
+                          work, stability, rod, _against_verdict(support, scored, verdict, focus[0]), alike)
 
 
 def _fit_effect(runner: Runner, ev: Evaluator, space: ParameterSet, starts: Sequence[np.ndarray], effect: str,
@@ -1015,6 +1020,28 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
     with the contact fitted (`Options.contact`) its stiffness and damping, which are no finding, can carry the
     whole gain. The floor stays the `friction` model then: what the effects were judged against.
     """
+    floor, accepted, reasons = _selection(scored, world, odb)
+    if accepted:
+        best = max(accepted, key=lambda m: _gain(m, floor))
+        why = (f"{best.effect} removes {100 * best.cv.compare(floor.cv):.0f} % of what {floor.effect} leaves on "
+               f"recordings neither was fitted on ({_better_in(best, floor)})"
+               if best.cv is not None and floor.cv is not None
+               else f"{best.effect} is worth its parameters against {floor.effect}")
+        return best.effect, ("; ".join(reasons) + f"; {why}: the verdict") if reasons else None, floor
+    if floor.effect == "friction" and _coefficients_negligible(floor, world, odb):
+        moved = _fmt({st.name: st.value for st in _coefficients(floor)})
+        reasons.append(f"friction's coefficients ({moved}) are within {100 * NEGLIGIBLE_FRICTION:.0f} % of the "
+                       "object database's: too small to matter physically (what the model gains beside them is its "
+                       "contact's, a solver's step or a servo as readily as a material, no finding), so it stays the "
+                       "floor the effects were judged against, not the verdict")
+        return "none", "; ".join(reasons) + "; no effect of the catalog is confirmed", floor
+    tail = "no effect of the catalog is confirmed" + ("" if floor.effect == "none" else
+                                                      ", the fitted friction is the model")
+    return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
+
+
+def _selection(scored: list[Scored], world, odb) -> tuple[Scored, list[Scored], list[str]]:
+    """(the floor, the effects accepted over it, why each refused model was refused), see `_verdict`."""
     by = {s.effect: s for s in scored if s.effect in ("none", "friction")}
     none, friction = by["none"], by.get("friction")
     reasons = []
@@ -1025,31 +1052,69 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
             floor = friction
         else:
             reasons.append(why)
-    effects = [s for s in scored if s.effect not in ("none", "friction")]
     accepted = []
-    for s in effects:
+    for s in scored:
+        if s.effect in ("none", "friction"):
+            continue
         why = _acceptable(s, none, friction if floor is friction else None, world, odb)
         if why is None:
             accepted.append(s)
         else:
             reasons.append(why)
-    if accepted:
-        best = max(accepted, key=lambda m: (m.cv.compare(floor.cv) if m.cv is not None and floor.cv is not None
-                                            else m.score))
-        why = (f"{best.effect} removes {100 * best.cv.compare(floor.cv):.0f} % of what {floor.effect} leaves on "
-               f"recordings neither was fitted on ({_better_in(best, floor)})"
-               if best.cv is not None and floor.cv is not None
-               else f"{best.effect} is worth its parameters against {floor.effect}")
-        return best.effect, ("; ".join(reasons) + f"; {why}: the verdict") if reasons else None, floor
-    if floor is friction and _coefficients_negligible(friction, world, odb):
-        moved = _fmt({st.name: st.value for st in _coefficients(friction)})
-        reasons.append(f"friction's coefficients ({moved}) are within {100 * NEGLIGIBLE_FRICTION:.0f} % of the "
-                       "object database's: too small to matter physically (what the model gains beside them is its "
-                       "contact's, a solver's step or a servo as readily as a material, no finding), so it stays the "
-                       "floor the effects were judged against, not the verdict")
-        return none.effect, "; ".join(reasons) + "; no effect of the catalog is confirmed", floor
-    tail = "no effect of the catalog is confirmed" + ("" if floor is none else ", the fitted friction is the model")
-    return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
+    return floor, accepted, reasons
+
+
+def _gain(s: Scored, floor: Scored) -> float:
+    """What the selection ranks accepted effects by: the share of the floor's cross-validated excess `s` removes
+    (its score where nothing was cross-validated)."""
+    return s.cv.compare(floor.cv) if s.cv is not None and floor.cv is not None else s.score
+
+
+@dataclass(frozen=True)
+class Alike:
+    """An accepted effect whose predictions the verdict's do not beat on the recordings (`Prediction.separated`):
+    the recordings support both, and the verdict leads it by chance as readily as by physics."""
+
+    effect: str
+    share: float  # of the floor's cross-validated excess it removes (the verdict's: `Scored.cv_share`)
+    p: float  # one-sided p that the verdict predicts better
+    better: int  # recordings the verdict predicts better
+    compared: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {"effect": self.effect, "share": round(self.share, 3), "p": round(self.p, 4),
+                "verdict_better_in": self.better, "compared": self.compared}
+
+
+def _alike(scored: list[Scored], verdict: str, world, odb) -> tuple[Alike, ...]:
+    """The accepted effects that predict the recordings neither was fitted on as well as the verdict does: none
+    told apart from it at ALIKE_P, best first. Empty when the verdict is the floor (no effect accepted) or
+    nothing was cross-validated."""
+    floor, accepted, _ = _selection(scored, world, odb)
+    winner = next(s for s in scored if s.effect == verdict)
+    if winner.cv is None or floor.cv is None:
+        return ()
+    alike = []
+    for s in accepted:
+        if s.effect == verdict or s.cv is None:
+            continue
+        p = winner.cv.separated(s.cv)
+        if p >= ALIKE_P:
+            better, compared = winner.cv.better_in(s.cv)
+            alike.append(Alike(s.effect, s.cv.compare(floor.cv), p, better, compared))
+    return tuple(sorted(alike, key=lambda a: -a.share))
+
+
+def _alike_sentence(alike: Sequence[Alike], winner: Scored, floor: str) -> str:
+    """What the report says of the effects the recordings do not tell apart from the verdict."""
+    names = ", ".join(a.effect for a in alike)
+    each = "; ".join(f"{a.effect} {100 * a.share:.0f} %, {winner.effect} better on {a.better} of {a.compared} "
+                     f"recordings, p {a.p:.2f}" for a in alike)
+    return (f"{names} also predict{'s' if len(alike) == 1 else ''} the recordings neither was fitted on, as well as "
+            f"{winner.effect} does ({winner.effect} removes {100 * (winner.cv_share or 0.0):.0f} % of what {floor} "
+            f"leaves; {each}; one-sided Wilcoxon signed-rank over the recordings, p < {ALIKE_P} to tell them apart): "
+            f"the recordings support each of them, and {winner.effect} leads by no more than chance; a push where "
+            f"their predictions part would decide")
 
 
 def _coefficients(s: Scored) -> list[Setting]:

@@ -9,6 +9,7 @@ from typing import Any, BinaryIO, Mapping, Sequence
 import numpy as np
 
 from ..files import Content, write_set
+from .crossval import ALIKE_P
 from .identify import CV_GAIN, Identification, _error_json
 from .locate import Localisation, LocatedObject
 
@@ -60,7 +61,8 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
         "noise": dict(noise or noise_summary(ident.localisation)),
         "cross_validation": ({"floor": ident.floor, "recordings": len(ident.train) + len(ident.held_out),
                               "cv_gain": CV_GAIN,
-                              "stability": ident.stability.to_json() if ident.stability is not None else None}
+                              "stability": ident.stability.to_json() if ident.stability is not None else None,
+                              "alike": [a.to_json() for a in ident.alike], "alike_p": ALIKE_P}
                              if ident.floor is not None else None),
         "correlation_time": round(ident.tau, 3),
         "scene_file": scene_file,
@@ -152,6 +154,9 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
     if ident.stability is not None:
         lines += [f"- stability: {ident.stability.agree} of {len(ident.stability.without)} selections with one "
                   f"recording left out give `{ident.verdict}`" + ("" if ident.stability.stable else " (not stable)")]
+    if ident.alike:
+        lines += ["- alike: " + ", ".join(f"`{a.effect}` ({100 * a.share:.0f} %, p {a.p:.2f})" for a in ident.alike)
+                  + f" predict the recordings not fitted on as well as `{ident.verdict}`: not told apart"]
     if r is not None:
         lines += [f"- runner-up: `{r.effect}` on `{r.target}`; margin {ident.margin:.1f} (log evidence, BIC/2)"]
     lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"

@@ -145,6 +145,7 @@ class CaseResult:
     seconds: float
     simulations: int
     held_out_excess_reduction: float | None = None  # of the residual above the noise floor (report.excess_reduction)
+    alike: tuple[str, ...] = ()  # accepted effects the recordings did not tell apart from the verdict
 
     @property
     def right(self) -> bool:
@@ -164,7 +165,8 @@ class CaseResult:
                 "runner_up": self.runner_up, "margin": self.margin,
                 "held_out_before": self.held_out_before, "held_out_after": self.held_out_after,
                 "held_out_reduction": self.held_out_reduction,
-                "held_out_excess_reduction": self.held_out_excess_reduction, "seconds": round(self.seconds, 1),
+                "held_out_excess_reduction": self.held_out_excess_reduction, "alike": list(self.alike),
+                "seconds": round(self.seconds, 1),
                 "simulations": self.simulations}
 
 
@@ -236,6 +238,11 @@ def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "target_right": _frac(sum(r["target_ok"] for r in concealed), len(concealed)),
         "params_recovered_when_right": _frac(sum(r["recovered"] for r in right), len(right)),
         "none_on_clean": _frac(sum(right_verdict(r["truth"], r["verdict"]) for r in clean), len(clean)),
+        # the verdict right but the recordings did not tell it from another accepted effect (`identify._alike`),
+        # and the concealed effect among the verdict and those: what a user reading the rivals would consider
+        "right_with_rivals": _frac(sum(bool(r.get("alike")) for r in right), len(right)),
+        "truth_supported": _frac(sum(r["effect"] in (r["verdict"], *r.get("alike", ())) for r in concealed),
+                                 len(concealed)),
         "held_out_excess_reduction_when_right_median": float(np.median(reductions)) if reductions else None,
         "held_out_excess_reduction_when_right_min": float(np.min(reductions)) if reductions else None,
         "held_out_excess_reduction_at_least_70pct": _frac(sum(x >= 0.7 for x in reductions), len(reductions)),
@@ -281,7 +288,8 @@ def proof_text(rows: Sequence[dict[str, Any]]) -> str:
         x = r.get("held_out_excess_reduction")
         ex = f"{-100 * x:+.0f}%" if x is not None else "-"
         lines.append(f"{r['case']:36s} {r['verdict']:16s} {str(r['target_ok']):7s} {str(r['recovered']):7s} "
-                     f"{ho:>21s} {ex:>7s} {r['seconds']:6.1f}  {r['recovery']}")
+                     f"{ho:>21s} {ex:>7s} {r['seconds']:6.1f}  {r['recovery']}"
+                     + (f" (alike: {', '.join(r['alike'])})" if r.get("alike") else ""))
     lines.append("")
     lines.append(summary_table(rows))
     return "\n".join(lines)
@@ -326,7 +334,7 @@ def run_case(case: Case, odb: ObjectDatabase, folder: Path, settings: ProofSetti
                       dict(ident.winner.params), ident.runner_up.effect if ident.runner_up else None,
                       round(ident.margin, 2) if math.isfinite(ident.margin) else None,
                       e.get("held_out_before", {}).get("e"), e.get("held_out_after", {}).get("e"), seconds,
-                      ident.simulations, e.get("held_out_excess_reduction"))
+                      ident.simulations, e.get("held_out_excess_reduction"), tuple(a.effect for a in ident.alike))
 
 
 def run_cases(cases: Sequence[Case], odb: ObjectDatabase, out: Path, settings: ProofSettings, *,

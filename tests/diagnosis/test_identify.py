@@ -5,11 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from bridge.diagnosis.crossval import Prediction
+from bridge.diagnosis.crossval import ALIKE_P, Prediction
 from bridge.diagnosis.effects import get_effect
 from bridge.diagnosis.identify import (CV_GAIN, Candidate, Scored, _acceptable, _cv_reason, _database_contact,
-                                       _friction_parameters, _friction_starts, _full_fits, _held_contact, _space,
-                                       _stability, _verdict, _with_uncertainty, _work_friction)
+                                       _alike, _alike_sentence, _friction_parameters, _friction_starts,
+                                       _full_fits, _held_contact, _rank, _space, _stability, _verdict,
+                                       _with_uncertainty, _work_friction)
 from bridge.diagnosis.search import FitResult
 from bridge.diagnosis.work import AGREES, WorkFit
 from bridge.params import KINDS, Parameter, ParameterSet
@@ -188,6 +189,41 @@ def test_a_verdict_that_changes_when_one_recording_is_left_out_is_reported_as_no
     assert (stability.agree, stability.stable) == (4, True) and stability.sentence().endswith("stable")
     assert _stability([steady, friction, _scored("none", 200.0 * n, 4 * n, {"a": (50.0 * n, n), "b": (50.0 * n, n)})],
                       "surface_tilt", None, None) is None  # two recordings: one would decide alone
+
+
+def test_effects_the_recordings_do_not_tell_apart_from_the_verdict_are_named_with_it():
+    """Real rect1, a fold whose floor is `none`: a tilt, a rod offset and a friction field each remove 35-52 % of
+    what `none` leaves, the tilt 3-10 points ahead but better than the others on only 5-7 of 11 pushes; which one
+    led changed from fold to fold. The verdict stays the leader; the report names the others as alike, since a
+    paired test over the recordings does not separate them. An effect the verdict beats on every recording is
+    told apart; a refused one is never alike; a verdict that is the floor has no rivals."""
+    n = 1000
+    names = [f"r{i}" for i in range(10)]
+    none = _scored("none", 500.0 * n, 10 * n, {k: (50.0 * n, n) for k in names})
+    lead = [20, 30, 18, 25, 22, 35, 19, 28, 24, 21]
+    swap = [24, 27, 21, 23, 26, 31, 22, 25, 27, 19]  # better on 5 of 10, a few % behind on the mean
+    tilt = _scored("surface_tilt", 200.0 * n, 10 * n, {k: (v * n, n) for k, v in zip(names, lead)},
+                   params={"surface_slope_x[box]": 0.02})
+    field = _scored("friction_field", 210.0 * n, 10 * n, {k: (v * n, n) for k, v in zip(names, swap)},
+                    params={"field_gx[box]": 5.0})
+    behind = _scored("hidden_obstacle", 220.0 * n, 10 * n, {k: (1.3 * v * n, n) for k, v in zip(names, lead)})  # worse on all 10
+    weak = _scored("friction_patch", 300.0 * n, 10 * n, {k: (45.0 * n, n) for k in names})  # 10 %: refused
+    scored = [tilt, field, behind, weak, none]
+    assert _verdict(scored, None, None)[0] == "surface_tilt"
+    assert tilt.cv.separated(field.cv) >= ALIKE_P > tilt.cv.separated(behind.cv)
+    alike = _alike(scored, "surface_tilt", None, None)
+    assert [a.effect for a in alike] == ["friction_field"]
+    assert (alike[0].better, alike[0].compared) == (5, 10) and alike[0].share == pytest.approx(
+        field.cv.compare(none.cv))
+    ranked = _rank(scored, "surface_tilt", none)
+    text = _alike_sentence(alike, ranked[0], "none")
+    assert text.startswith("friction_field also predicts") and "better on 5 of 10 recordings" in text
+    assert _alike([weak, none], "none", None, None) == ()
+    # five recordings can tell two models apart (least p 1/32), four cannot (1/16): the test knows its own power
+    four = {k: (10.0 * n, n) for k in names[:4]}
+    assert Prediction(four).separated(Prediction({k: (20.0 * n, n) for k in names[:4]})) > ALIKE_P
+    assert Prediction({k: (10.0 * n, n) for k in names[:5]}).separated(
+        Prediction({k: (20.0 * n, n) for k in names[:5]})) < ALIKE_P
 
 
 def test_without_cross_validation_the_fits_criteria_decide():
@@ -392,3 +428,34 @@ def test_the_floor_is_the_friction_model_that_predicts_better_and_an_effect_is_n
     assert _better_floor(database_contact, fitted_contact) is database_contact
     assert _better_floor(fitted_contact, _scored("friction", 0, 0)) is fitted_contact  # nothing to compare: kept
     assert none.cv.compare(floor.cv) < 0
+
+
+def test_the_rivals_alike_are_written_to_diagnosis_json_and_the_report():
+    """What a user reads: the rivals in `cross_validation.alike` (schema-valid) and a line of the report."""
+    from bridge.diagnosis.identify import Identification
+    from bridge.diagnosis.locate import Localisation
+    from bridge.diagnosis.report import diagnosis_json, report_markdown, validate
+    from bridge.rollout.compare import PoseError
+
+    n = 100
+    names = [f"r{i}" for i in range(6)]
+    error = PoseError(0.001, 0.01, 0.002, 100)
+
+    def model(effect, values, **kw):
+        return _scored(effect, sum(values) * n, 6 * n, {k: (v * n, n) for k, v in zip(names, values)}, error=error,
+                       held_out_error=error, **kw)
+
+    none = model("none", [50] * 6)
+    tilt = model("surface_tilt", [20, 30, 18, 25, 22, 35], params={"surface_slope_x[box]": 0.02})
+    field = model("friction_field", [24, 27, 21, 23, 26, 31], params={"field_gx[box]": 5.0})
+    scored = [tilt, field, none]
+    alike = _alike(scored, "surface_tilt", None, None)
+    ranked = tuple(_rank(scored, "surface_tilt", none))
+    ident = Identification("surface_tilt", ranked, Localisation(()), tuple(names), (), 1.0, (),
+                           (_alike_sentence(alike, ranked[0], "none"),), 0, 0.0, floor="none", alike=alike)
+    data = diagnosis_json(ident)
+    validate(data)
+    assert [a["effect"] for a in data["cross_validation"]["alike"]] == ["friction_field"]
+    assert data["cross_validation"]["alike"][0]["compared"] == 6
+    text = report_markdown(ident, data, [])
+    assert "- alike: `friction_field`" in text and "not told apart" in text
