@@ -33,7 +33,9 @@ push is held out once and scored by what was fitted on the others. Columns:
   drake_diag   Drake with the model `bridge diagnose` chooses on the training folds (friction and the verdict's
                effect; the whole diagnosis per fold, every training push cross-validated inside it: only with
                --diagnose, expensive). Each fold's verdict, parameters, their spread over the diagnosis's own
-               refits and its stability are kept: the verdict per shape is stable when most folds give it
+               refits and its stability are kept, with the effects the fold's recordings did not tell apart
+               from the verdict (`alike`, their parameters): the verdict per shape is stable when most folds
+               give it, and an effect is supported in a fold where it is the verdict or alike with it
 
 Scores per held-out push: final-pose error (mm, deg: the last observation) and the paper's trajectory error
 e_t (mm), e_R (deg) over the observed track (`bridge.rollout.compare`, eq. 1-4). Median and p90 per shape and
@@ -193,7 +195,9 @@ def diagnose_fold(trials: list, train: list[int], odb, workers: int) -> tuple[tu
              "params_range": (winner.get("cv") or {}).get("params_range", {}), "model": winner.get("model", []),
              "stability": stability.get("agree"), "selections": stability.get("selections"),
              "floor": (data.get("cross_validation") or {}).get("floor"),
-             "alike": [a["effect"] for a in (data.get("cross_validation") or {}).get("alike", [])],
+             "alike": [a.effect for a in ident.alike],  # the effects not told apart from the verdict, and their fits
+             "alike_params": {e["effect"]: e["params"] for e in data["effects"]
+                              if e["effect"] in {a.effect for a in ident.alike}},
              "cross_validated": {e["effect"]: e["cv"]["rms_sigma_each"] for e in data["effects"] if e.get("cv")},
              "simulations": data["simulations"], "wall_s": round(time.perf_counter() - started, 1)}
     return ident.model(), entry

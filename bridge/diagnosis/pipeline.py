@@ -193,6 +193,10 @@ def summary_text(run: DiagnosisRun) -> str:
     w = ident.winner
     lines = [f"verdict: {ident.verdict}" + (f" on {w.target}: " + parameters_text(w) if ident.verdict != "none" else "")
              + (" (partial: stopped at the time limit)" if ident.partial else "")]
+    if ident.alike:
+        lines.append("alike: " + ", ".join(a.effect for a in ident.alike)
+                     + f" predict{'s' if len(ident.alike) == 1 else ''} the recordings not fitted on as well as "
+                     f"{ident.verdict} (not told apart; see the notes)")
     if ident.runner_up is not None:
         lines.append(f"runner-up: {ident.runner_up.effect} on {ident.runner_up.target} (margin {ident.margin:.1f})")
     e = data["error"]

@@ -156,7 +156,8 @@ def report_markdown(ident: Identification, data: Mapping[str, Any], figures: Seq
                   f"recording left out give `{ident.verdict}`" + ("" if ident.stability.stable else " (not stable)")]
     if ident.alike:
         lines += ["- alike: " + ", ".join(f"`{a.effect}` ({100 * a.share:.0f} %, p {a.p:.2f})" for a in ident.alike)
-                  + f" predict the recordings not fitted on as well as `{ident.verdict}`: not told apart"]
+                  + f" predict{'s' if len(ident.alike) == 1 else ''} the recordings not fitted on as well as "
+                  f"`{ident.verdict}`: not told apart"]
     if r is not None:
         lines += [f"- runner-up: `{r.effect}` on `{r.target}`; margin {ident.margin:.1f} (log evidence, BIC/2)"]
     lines += [f"- recordings: {len(ident.train)} fitted, {len(ident.held_out)} held out"

@@ -459,3 +459,7 @@ def test_the_rivals_alike_are_written_to_diagnosis_json_and_the_report():
     assert data["cross_validation"]["alike"][0]["compared"] == 6
     text = report_markdown(ident, data, [])
     assert "- alike: `friction_field`" in text and "not told apart" in text
+    from bridge.diagnosis.pipeline import DiagnosisRun, summary_text
+
+    summary = summary_text(DiagnosisRun(ident, data, {}, None)).splitlines()
+    assert summary[1].startswith("alike: friction_field predicts the") and "friction_field also predicts" in summary[-1]
