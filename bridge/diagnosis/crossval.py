@@ -78,7 +78,7 @@ class Prediction:
         tie, no evidence). Every recording weighs alike: one whose leave-one-out refit went wrong (a tilt near the
         friction cone refitted from the two other pushes) cannot outvote the rest, nor can one recording's gain
         carry recordings the model predicts worse (a patch placed where only that push went). Negative: worse."""
-        logs = [np.log(max(c, n) / max(b, n)) for c, b, n in self._compared(floor)]
+        logs = self._log_ratios(floor)
         return float(1.0 - np.exp(np.mean(logs))) if logs else 0.0
 
     def better_in(self, floor: "Prediction") -> tuple[int, int]:
@@ -104,8 +104,7 @@ class Prediction:
         better on 5-7 of 10-11 pushes). Rank-based, so one recording's large ratio cannot decide it, and free of
         any scale: with n recordings the least p is 2^-n (five recordings can tell two models apart, four
         cannot). 1.0 when no recording is compared."""
-        logs = [np.log(max(c, n) / max(b, n)) for c, b, n in self._compared(other)]
-        logs = [v for v in logs if v != 0.0]
+        logs = [v for v in self._log_ratios(other) if v != 0.0]
         if not logs:
             return 1.0
         return float(wilcoxon(logs, alternative="less").pvalue)  # exact for these sizes, normal where ranks tie
@@ -123,6 +122,10 @@ class Prediction:
         """These predictions without recording `name`: the selection repeated on the other folds."""
         return Prediction({k: v for k, v in self.each.items() if k != name},
                           {k: v for k, v in self.params.items() if k != name})
+
+    def _log_ratios(self, other: "Prediction") -> list[float]:
+        """log(this chi^2 / the other's) of each recording `_compared` keeps, each floored at its noise level."""
+        return [float(np.log(max(c, n) / max(b, n))) for c, b, n in self._compared(other)]
 
     def _compared(self, floor: "Prediction") -> list[tuple[float, float, int]]:
         """(this chi^2, the floor's, samples) of each recording both predicted and either puts above the noise."""
