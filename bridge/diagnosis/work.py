@@ -200,9 +200,10 @@ def balance(rows: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return x, bread @ meat @ bread * n_groups / (n_groups - 1)
 
 
-def work_fit(trials: Sequence, odb, obj: str) -> WorkFit | None:
-    """The `WorkFit` of `obj` over `trials` (`rollout.trials.Trial`); None without a planar pusher, a force track,
-    a prism outline or windows enough (four recordings or more that pushed it: three unknowns, clustered)."""
+def push_windows(trials: Sequence, odb, obj: str) -> list[tuple[int, np.ndarray]] | None:
+    """Each pushing trial's `windows_of` rows for `obj` (its index in `trials`, the rows); None without a planar
+    pusher's object with a prism outline. Trials without a force track, a rod or a sliding window are left out.
+    A window's own coefficient is row[0] / row[1] (no slope), its mean sliding speed row[1] / (m g WINDOW)."""
     from ..rollout.trials import shape_outline
     from ..sim.anisotropy import footprint_points
     from ..sim.shapes import mass_properties
@@ -215,8 +216,8 @@ def work_fit(trials: Sequence, odb, obj: str) -> WorkFit | None:
         return None
     footprint = footprint_points(outline)
     mass = float(mass_properties(odb, kind).mass)
-    rows, groups = [], []
-    for trial in trials:
+    out = []
+    for k, trial in enumerate(trials):
         track = next((t for t in trial.observations.tracks if t.object == obj), None)
         if trial.force is None or track is None or len(track.times) < 8:
             continue
@@ -229,10 +230,18 @@ def work_fit(trials: Sequence, odb, obj: str) -> WorkFit | None:
         yaw = np.array([p.yaw() for p in track.poses])
         push = windows_of(times, xy, yaw, rod, force, footprint, mass)
         if len(push):
-            rows.append(push)
-            groups.append(np.full(len(push), len(groups)))
-    if len(rows) < 4:
+            out.append((k, push))
+    return out
+
+
+def work_fit(trials: Sequence, odb, obj: str) -> WorkFit | None:
+    """The `WorkFit` of `obj` over `trials` (`rollout.trials.Trial`); None without a planar pusher, a force track,
+    a prism outline or windows enough (four recordings or more that pushed it: three unknowns, clustered)."""
+    pushes = push_windows(trials, odb, obj)
+    if pushes is None or len(pushes) < 4:
         return None
+    rows = [r for _, r in pushes]
+    groups = [np.full(len(r), g) for g, r in enumerate(rows)]
     solved = balance(np.concatenate(rows), np.concatenate(groups))
     if solved is None:
         return None
