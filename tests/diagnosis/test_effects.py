@@ -139,21 +139,41 @@ def test_negligible_parameters_are_the_effects_own(planar_world, odb):
     assert not get_effect("hidden_obstacle").negligible(planar_world, odb, "surface", {})
 
 
-def test_a_patch_is_tried_only_where_a_residual_begins_mid_push(planar_world, odb):
-    """A patch is local: its evidence is a residual that begins when an object enters it. Where every residual
-    begins at the first contact (a world that differs from the model everywhere), nothing says where a patch
-    would be, and a square placed where the objects went soaks up the difference: an independent MuJoCo world
-    with no effect was called `friction_patch` that way. Such a world gets no patch to try."""
+def test_a_patch_is_placed_where_a_residual_begins_mid_push(planar_world, odb):
+    """A patch is local: its evidence is a residual that begins when an object enters it, and its rectangles
+    begin where the objects' leading edges were then."""
     from bridge.diagnosis.effects import Evidence
 
     effect = get_effect("friction_patch")
-    early = tuple({"significant": True, "onset_rel": 0.02, "direction": (1.0, 0.0), "onset_xy_sim": (0.0, 0.0),
-                   "mid_xy_obs": (0.02, 0.01), "final_xy_obs": (0.05, 0.02)} for _ in range(5))
-    assert effect.seeds(Evidence(early, planar_world, odb), "surface") == []
-    late = tuple({**f, "onset_rel": 0.5} for f in early)
+    late = tuple({"significant": True, "onset_rel": 0.5, "direction": (1.0, 0.0), "onset_xy_sim": (0.0, 0.0)}
+                 for _ in range(5))
     ahead = effect.seeds(Evidence(late, planar_world, odb), "surface")
     # each rectangle begins where the objects' leading edges were at the onset (origin + 5 cm reach along +x)
     assert {round(s[pname("patch_cx", "surface")] - s[pname("patch_half", "surface")], 4) for s in ahead} == {0.05}
+
+
+def test_without_an_onset_a_patchs_edge_is_placed_along_the_way_the_objects_went(planar_world, odb):
+    """A world that differs from the model from the first contact on carries a residual above the noise from
+    that contact, so no onset says where an object met a patch (the independent MuJoCo patch worlds: no seed,
+    never screened). The edges are then placed across the way the objects went, a quarter and three fifths of
+    their median travel beyond their leading sides at the start: five blocks (90 mm squares, their leading sides
+    45 mm ahead of their centres) slid 40 mm along +y side by side. An object that did not move gives no seed."""
+    import numpy as np
+
+    from bridge.diagnosis.effects import Evidence
+
+    effect = get_effect("friction_patch")
+    lead = odb.get(planar_world.objects["block"].type).geometry.size[0] / 2
+    path = np.column_stack([np.zeros(50), np.linspace(0.0, 0.04, 50), np.full(50, math.pi / 2)])
+    early = tuple({"significant": True, "onset_rel": 0.0, "direction": (0.0, 1.0), "object": "block",
+                   "poses_obs": path + [0.01 * k, 0.0, 0.0]} for k in range(-2, 3))
+    seeds = effect.seeds(Evidence(early, planar_world, odb), "surface")
+    assert seeds and all(s[pname("patch_yaw", "surface")] == pytest.approx(math.pi / 2) for s in seeds)
+    edges = {round(s[pname("patch_cy", "surface")] - s[pname("patch_half", "surface")], 4) for s in seeds}
+    assert edges == {round(lead + 0.25 * 0.04, 4), round(lead + 0.6 * 0.04, 4)}
+    assert all(s[pname("patch_cx", "surface")] == pytest.approx(0.0, abs=1e-9) for s in seeds)
+    still = tuple({**f, "poses_obs": path[:1].repeat(50, axis=0)} for f in early)
+    assert effect.seeds(Evidence(still, planar_world, odb), "surface") == []
 
 
 def test_a_patchs_seeds_face_the_way_the_objects_went(planar_world, odb):

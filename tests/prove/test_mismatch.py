@@ -351,3 +351,39 @@ def test_a_world_whose_step_rocks_the_object_is_recorded_at_a_step_that_converge
         local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
         depth = PUSHER_RADIUS - signed_distance(local, outline)
         assert depth.max() < 3e-3, (path.name, depth.max())  # the rod's surface within the contact's compliance
+
+
+@pytest.mark.slow
+def test_a_patch_whose_onset_the_mismatch_hides_is_seeded_across_the_way_the_objects_went(odb, tmp_path):
+    """In a world that differs from the model beneath the patch, every residual is above the noise from the
+    first contact, so no onset says where the objects met the patch (this world's three pushes: onsets at 5-6 %
+    of the push, the seeds need 10 %). The patch is then seeded across the way the objects went, part of their
+    travel ahead (`friction_patch._swept_entries`; until session 59 it had no seed and was never tried). Through
+    the real simulation, the best of those seeds predicts the recordings far better than no patch, and than its
+    own coefficient laid everywhere: its place, not its coefficient alone, is what the recordings follow."""
+    from bridge.diagnosis.effects import Evidence, get_effect
+    from bridge.diagnosis.locate import locate
+    from bridge.diagnosis.runs import Runner, prepare
+    from bridge.params.model import Setting
+    from bridge.prove.generate import generate_case
+    from bridge.rollout import make_executor
+    from bridge.rollout.trials import load_trials
+
+    paths, truth = generate_case(Case(SHAPE, "friction_patch", "large", 5, "mismatched"), odb, tmp_path, 3)
+    assert truth.extra["shape"] == "strip"  # the world this test is about
+    trials = load_trials(paths, odb, observation_rate=250.0)
+    with make_executor("serial", odb) as executor:
+        runner = Runner([prepare(t, odb, 25.0) for t in trials], odb, executor)
+        loc = locate(runner)
+        features = tuple(dict(o.features) for o in loc.objects)
+        assert all(f["onset_rel"] is not None and f["onset_rel"] <= 0.1 for f in features), features
+        seeds = get_effect("friction_patch").seeds(Evidence(features, runner.prepared[0].world, odb), "surface")
+        assert seeds
+
+        def chi2(values: dict) -> float:
+            model = tuple(Setting(k.split("[")[0], "surface", v) for k, v in values.items())
+            return float(sum(np.sum(r.normalised ** 2) for r in runner.run(model, list(range(len(trials))))))
+        best = min(seeds, key=chi2)
+        everywhere = {**best, "patch_half[surface]": 1.0, "patch_breadth[surface]": 1.0}
+        none = float(sum(np.sum(r.normalised ** 2) for r in loc.runs))
+        assert chi2(best) < 0.5 * none and chi2(best) < 0.5 * chi2(everywhere), (chi2(best), none, chi2(everywhere))
