@@ -69,7 +69,8 @@ class FrictionPatch(Effect):
         onsets (the median entry point and the first single one): a half-plane (as far as the pushes go), a strip
         across the way and a square, each with a lower and a higher coefficient. Real regions of other friction
         (a mat's edge, tape, a wet spot) lie at any angle: an axis-aligned square meets an oblique edge too early
-        on one side and too late on the other."""
+        on one side and too late on the other. Where no residual began mid-push, the same rectangles begin across
+        the way the objects went, part of their travel ahead (`_swept_entries`)."""
         mu_bounds = next(p.bounds for p in self.parameters(evidence.world, evidence.odb, target)
                          if p.kind.name == "patch_mu")
         pair = self._pair(evidence.world, evidence.odb, target)
