@@ -53,13 +53,14 @@ def read_set(name: str, paths: list[Path], odb, executor) -> dict:
     rod = rod_reading(trials, uniform, odb, obj, 1.0, 1.0)
     support = calibrated_reading(trials, uniform, lambda s: replays((Setting("support_scale", obj, s),)), odb, obj)
     truth = paths[0].parent / "truth.json"
-    return {"work_by_speed": work_by_speed(trials, paths, odb, obj), "set": name, "recordings": len(trials), "seconds": round(time.perf_counter() - started, 1),
+    return {"set": name, "recordings": len(trials), "seconds": round(time.perf_counter() - started, 1),
             "truth": json.loads(truth.read_text()).get("world") if truth.exists() else None,
             "rod_factor": None if rod is None else {"factor": rod.factor, "sd": rod.factor_sd,
                                                     "recorded": rod.recorded.coefficient},
             "support": None if support is None else {"scale": support.scale, "sd": support.scale_sd,
                                                      "agree": support.agree, "contradicts_uniform": support.contradicts,
-                                                     "pushes": [round(p.scale, 3) for p in support.pushes]}}
+                                                     "pushes": [round(p.scale, 3) for p in support.pushes]},
+            "work_by_speed": work_by_speed(trials, paths, odb, obj)}
 
 
 def work_by_speed(trials, paths: list[Path], odb, obj: str) -> list[dict] | None:

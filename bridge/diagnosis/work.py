@@ -217,7 +217,7 @@ def push_windows(trials: Sequence, odb, obj: str) -> list[tuple[int, np.ndarray]
     footprint = footprint_points(outline)
     mass = float(mass_properties(odb, kind).mass)
     out = []
-    for k, trial in enumerate(trials):
+    for index, trial in enumerate(trials):
         track = next((t for t in trial.observations.tracks if t.object == obj), None)
         if trial.force is None or track is None or len(track.times) < 8:
             continue
@@ -230,7 +230,7 @@ def push_windows(trials: Sequence, odb, obj: str) -> list[tuple[int, np.ndarray]
         yaw = np.array([p.yaw() for p in track.poses])
         push = windows_of(times, xy, yaw, rod, force, footprint, mass)
         if len(push):
-            out.append((k, push))
+            out.append((index, push))
     return out
 
 
