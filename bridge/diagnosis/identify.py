@@ -74,6 +74,8 @@ SIZE_SPREAD = 0.5  # share of a fitted size's move of the outline granted to the
 #                    that (10-25 % on the dataset's convex shapes, 50 % on the non-convex butter)
 MIN_FOLDS = 3  # recordings cross-validated for the verdict's stability to be read (`_stability`)
 FRICTION_EXTRA = 4  # more iterations for the friction fit: every other model is judged against it
+SCREENED = 0.5  # share of the training recordings a screen replays (at least MIN_SCREENED; `_screening`)
+MIN_SCREENED = 3
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,8 @@ class Candidate:
     start: dict[str, float] = field(default_factory=dict)  # the screened point, by parameter name
     note: str = ""
     database_contact: bool = False  # screened (and so fitted) with the database's contact (`_held_contact`)
+    screened_n: int = 0  # the samples `screened_chi2` is over (the recordings screened, `_screening`) ...
+    screened_floor: float = math.inf  # ... and the least chi^2 of `none` and the friction model over them
 
 
 @dataclass(frozen=True, eq=False)
@@ -327,7 +331,9 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         say(support.sentence())
     advance()
 
-    # 3. screen candidates (each together with the friction coefficients), likely ones first
+    # 3. screen candidates (each together with the friction coefficients), likely ones first, on the recordings the
+    #    friction model leaves the most to explain
+    sev = _screening(ev, base_fit.model())
     screened = []
     fitted_friction = base_fit.values()  # every candidate starts from the fitted coefficients
     effect_friction = _held_contact(friction_params, fitted_friction)
@@ -354,10 +360,13 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         if not starts:
             screened.append(Candidate(c.effect, c.target, c.prior, math.inf, {}, "no seed from the localisation"))
             continue
-        x, chi2 = _best_start(ev, space, starts)  # one batch on the workers
+        # a local effect (a patch, a post) changes only the pushes that reach it, which need not be those the
+        # floor fits worst: screened on every recording
+        cev = ev if effect.local else sev
+        x, chi2 = _best_start(cev, space, starts)  # one batch on the workers
         ordinary = effect_friction
         if any(p.kind.contact_model for p in friction_params):  # the same point at the database's contact
-            at_database = _chi2_below(ev, _model(_space(database_friction, effect, c.target, world, odb, held), x),
+            at_database = _chi2_below(cev, _model(_space(database_friction, effect, c.target, world, odb, held), x),
                                       chi2)
             if at_database < chi2:
                 ordinary, chi2 = database_friction, at_database
@@ -368,24 +377,28 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         # pushes back harder with less friction)
         frees = [None] + ([range(free_friction)] if free_friction and not effect.smooth else [])
         for free in frees:
-            y, c2 = screen(ev, space, x, free=free)
+            y, c2 = screen(cev, space, x, free=free)
             if c2 < chi2:
                 x, chi2 = y, c2
+        screen_floor, screen_n = min(cev.chi2(()), cev.chi2(base_fit.model())), chi2_of(cev.runs(()))[1]
         screened.append(Candidate(c.effect, c.target, c.prior, chi2, space.as_dict(space.from_normal(x)),
-                                  database_contact=ordinary is database_friction))
+                                  database_contact=ordinary is database_friction, screened_n=screen_n,
+                                  screened_floor=screen_floor))
         say(f"screen {c.effect} ({c.target}" + (", the database's contact" if ordinary is database_friction else "")
-            + f"): prior {c.prior:.2f}, rms {math.sqrt(chi2 / n):.1f} "
+            + f"): prior {c.prior:.2f}, rms {math.sqrt(chi2 / screen_n):.1f} over {len(cev.indices)} recording(s) "
             f"[{runner.simulations} simulations]")
         advance()
 
     reference = min(none_chi2, base_fit.chi2)
 
     def rank_key(c: Candidate) -> float:
-        gain = (reference - c.screened_chi2) / max(reference, 1e-12)  # < 0: the screen made it worse
+        # the chi^2 the screen removed where it was screened, a share of the floor's over every recording (a
+        # candidate screened on some is taken to change nothing on the others); < 0: the screen made it worse
+        gain = (c.screened_floor - c.screened_chi2) / max(reference, 1e-12)
         return -(gain * (0.5 + 0.5 * c.prior))
 
     order = sorted([c for c in screened if math.isfinite(c.screened_chi2)], key=rank_key)
-    full = _full_fits(order, options.max_full_fits, reference, lambda c: _all_measured(c, world, odb, held))
+    full = _full_fits(order, options.max_full_fits, lambda c: _all_measured(c, world, odb, held))
     step[1] = step[0] + len(full)  # what is left: the full fits
     # 4. full fits, each effect together with the friction coefficients, from the screened point
     fitted: list[Scored] = _held_out(runner, held_out, [none, friction_scored])
@@ -526,6 +539,22 @@ def _fit_effect(runner: Runner, ev: Evaluator, space: ParameterSet, starts: Sequ
     result = fit(ev, space, _best_start(ev, space, starts)[0], max_iterations=options.max_iterations,
                  optimizer=options.optimizer, should_stop=limit.expired)
     return result, _held_out(runner, held_out, [_from_fit(effect, target, result, world, odb, measured)])[0]
+
+
+def _screening(ev: Evaluator, floor: Model) -> Evaluator:
+    """The training recordings a screen replays, with every model `ev` has run known on them: the SCREENED share
+    (at least MIN_SCREENED) on which the `floor` model leaves the most chi^2 above the noise. A screen only ranks
+    the candidates and gives each full fit its start, and a candidate can gain most where the floor leaves most;
+    the full fits, the held-out predictions and the cross-validation replay every recording (and the screens of a
+    local effect, `identify`). The screens were about half of a diagnosis' replays."""
+    runs = ev.runs(floor)
+    k = max(min(MIN_SCREENED, len(runs)), math.ceil(SCREENED * len(runs)))
+    if k >= len(runs):
+        return ev
+    worst = sorted(sorted(range(len(runs)), key=lambda j: -(runs[j].chi2 - len(runs[j].normalised)))[:k])
+    sub = Evaluator(ev.runner, [ev.indices[j] for j in worst])
+    sub.cache = {m: tuple(r[j] for j in worst) for m, r in ev.cache.items()}
+    return sub
 
 
 def _best_start(ev: Evaluator, space: ParameterSet, starts: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
@@ -754,17 +783,17 @@ def measured_model(runner: Runner, train: Sequence[int], held_out: Sequence[int]
     return tuple(s for s, _ in _measured_settings(loader, runner.prepared[order[0]].world))
 
 
-def _full_fits(order: list[Candidate], best: int, reference: float,
-               is_measured: Callable[[Candidate], bool]) -> list[Candidate]:
+def _full_fits(order: list[Candidate], best: int, is_measured: Callable[[Candidate], bool]) -> list[Candidate]:
     """The candidates fitted fully, from the screened ones best first: the `best` first; an effect the recordings
     measure before any simulation (`_measured`), since the measurement, not the screen, is its evidence (in a
     world that differs from the model elsewhere it may screen low); and the signature's favourite (the highest
-    prior) where its screen removed anything of the `reference` chi^2, since a screen is one step and a flexible
-    effect screens better than a smooth one that fits better (a matched com_offset world: the centre of mass,
-    the favourite and the verdict by a wide margin before, screened seventh behind a turned patch)."""
+    prior) where its screen removed anything of its floor's chi^2 (`Candidate.screened_floor`), since a screen is
+    one step and a flexible effect screens better than a smooth one that fits better (a matched com_offset world:
+    the centre of mass, the favourite and the verdict by a wide margin before, screened seventh behind a turned
+    patch)."""
     full = order[:best] + [c for c in order[best:] if is_measured(c)]
     favourite = max(order, key=lambda c: c.prior, default=None)
-    if favourite is not None and favourite not in full and favourite.screened_chi2 < reference:
+    if favourite is not None and favourite not in full and favourite.screened_chi2 < favourite.screened_floor:
         full.append(favourite)
     return full
 

@@ -49,7 +49,7 @@ def diagnosis_json(ident: Identification, *, scene_file: str | None = None, nois
         "margin": round(ident.margin, 3) if math.isfinite(ident.margin) else None,
         "effects": [s.to_json() for s in ident.ranked],
         "candidates": [{"effect": c.effect, "target": c.target, "prior": round(c.prior, 3),
-                        "screened_rms_sigma": (round(math.sqrt(c.screened_chi2 / max(1, none.n)), 3)
+                        "screened_rms_sigma": (round(math.sqrt(c.screened_chi2 / max(1, c.screened_n or none.n)), 3)
                                                if math.isfinite(c.screened_chi2) else None),
                         **({"note": c.note} if c.note else {})} for c in ident.candidates],
         "error": error,

@@ -305,15 +305,16 @@ def test_the_signatures_favourite_is_fitted_fully_where_its_screen_gained():
     a smooth one that fits better (a matched world's centre of mass, the verdict by a wide margin when fitted,
     screened seventh). The best four are fitted, and the signature's favourite beside them if its screen removed
     anything; one whose screen made things worse is left, and none is fitted twice."""
-    screened = [Candidate(f"e{k}", "t", prior, chi2) for k, (prior, chi2) in
+    def screened(floor: float) -> list[Candidate]:  # screened where the floor leaves `floor`
+        return [Candidate(f"e{k}", "t", prior, chi2, screened_floor=floor) for k, (prior, chi2) in
                 enumerate([(0.4, 67.0), (0.36, 96.0), (0.49, 202.0), (0.76, 369.0), (0.45, 296.0), (0.47, 322.0),
                            (0.77, 432.0)])]
-    names = [c.effect for c in _full_fits(screened, 4, 853.0, lambda c: False)]
+    names = [c.effect for c in _full_fits(screened(853.0), 4, lambda c: False)]
     assert names == ["e0", "e1", "e2", "e3", "e6"]
-    assert [c.effect for c in _full_fits(screened, 4, 400.0, lambda c: False)] == ["e0", "e1", "e2", "e3"]
-    assert [c.effect for c in _full_fits(screened[-1:] + screened[:4], 4, 853.0, lambda c: False)] == \
+    assert [c.effect for c in _full_fits(screened(400.0), 4, lambda c: False)] == ["e0", "e1", "e2", "e3"]
+    assert [c.effect for c in _full_fits(screened(853.0)[-1:] + screened(853.0)[:4], 4, lambda c: False)] == \
         ["e6", "e0", "e1", "e2"]
-    assert [c.effect for c in _full_fits(screened, 4, 853.0, lambda c: c.effect == "e4")] == \
+    assert [c.effect for c in _full_fits(screened(853.0), 4, lambda c: c.effect == "e4")] == \
         ["e0", "e1", "e2", "e3", "e4", "e6"]
 
 
@@ -463,3 +464,34 @@ def test_the_rivals_alike_are_written_to_diagnosis_json_and_the_report():
 
     summary = summary_text(DiagnosisRun(ident, data, {}, None)).splitlines()
     assert summary[1].startswith("alike: friction_field predicts the") and "friction_field also predicts" in summary[-1]
+
+
+def test_the_screens_replay_the_half_of_the_recordings_the_friction_model_fits_worst():
+    """A screen only ranks candidates and starts the full fits: it replays the half of the training recordings
+    (three at least) where the friction model leaves the most chi^2 above the noise, with every model already run
+    known there (no replay asked twice); with three recordings or fewer it replays them all."""
+    from types import SimpleNamespace
+
+    from bridge.diagnosis.identify import _screening
+    from bridge.diagnosis.runs import Run
+    from bridge.diagnosis.search import Evaluator
+    from bridge.params import Setting
+
+    def runs(excess: list[float], samples: int = 100) -> tuple[Run, ...]:
+        # chi^2 = samples + excess: the noise's share and what is left above it
+        return tuple(Run(f"r{j}", {}, np.full(samples, math.sqrt(1.0 + e / samples))) for j, e in enumerate(excess))
+
+    runner = SimpleNamespace(prepared=[SimpleNamespace(world=None)] * 8)
+    friction = (Setting("sliding_friction", "box", 0.3),)
+    ev = Evaluator(runner, [0, 2, 3, 4, 5, 7])
+    ev.cache[friction] = runs([5.0, 50.0, 1.0, 30.0, 2.0, 40.0])
+    ev.cache[()] = runs([9.0, 9.0, 9.0, 9.0, 9.0, 9.0])
+    sub = _screening(ev, friction)
+    assert sub.indices == [2, 4, 7]  # positions 1, 3, 5: the largest excess
+    assert [r.trial for r in sub.runs(friction)] == ["r1", "r3", "r5"] and len(sub.runs(())) == 3
+    few = Evaluator(runner, [0, 1, 2, 3])
+    few.cache[friction] = runs([1.0, 2.0, 3.0, 4.0])
+    assert _screening(few, friction).indices == [1, 2, 3]  # three at least
+    three = Evaluator(runner, [0, 1, 2])
+    three.cache[friction] = runs([1.0, 2.0, 3.0])
+    assert _screening(three, friction) is three
