@@ -48,6 +48,10 @@ PINNED = 0.0175  # rad (1 deg): the largest 1 sigma of a slope component that st
 OUTLIER = 4.0  # windows off the fit by more than this many robust deviations are left out of the refit
 AGREES = 0.025  # a fitted sliding coefficient this close to the work's agrees with it: the work reads within 0.025
 #                of the truth in every simulated world without a patch (module docstring)
+HELD = 2.0  # a window whose mean force exceeds this many times the object's weight is left out: real material pairs
+#            slide at coefficients up to about 2 (`odb.ranges.FRICTION`), so something else holds the object
+#            there (a jam against an obstacle: independent MuJoCo pushes jammed at 100-1000 N on a 4 N hexagon read
+#            coefficients of 3-9 with those windows in)
 
 
 @dataclass(frozen=True)
@@ -127,9 +131,10 @@ def _g(value: float) -> float:
 def windows_of(times: np.ndarray, xy: np.ndarray, yaw: np.ndarray, rod: np.ndarray, force: np.ndarray,
                footprint: tuple[np.ndarray, np.ndarray], mass: float) -> np.ndarray:
     """Rows (work - kinetic energy change, m g x integral of D, m g x displacement x, y) over the WINDOW-long
-    windows of one push while its object slides; the arrays are the object's track, the rod's centre and the force
-    on the object (world x-y), all at `times`; `footprint` the uniform quadrature of its bottom (points in the body
-    frame, weights: `sim.anisotropy.footprint_points`)."""
+    windows of one push while its object slides and nothing but its support holds it (the force below HELD times
+    its weight); the arrays are the object's track, the rod's centre and the force on the object (world x-y), all
+    at `times`; `footprint` the uniform quadrature of its bottom (points in the body frame, weights:
+    `sim.anisotropy.footprint_points`)."""
     if len(times) < 8 or times[-1] - times[0] < 2 * SMOOTHING:
         return np.zeros((0, 4))
     grid = np.arange(times[0], times[-1], 1.0 / RATE)
@@ -157,7 +162,7 @@ def windows_of(times: np.ndarray, xy: np.ndarray, yaw: np.ndarray, rod: np.ndarr
     edges = np.arange(grid[moving[0]], grid[moving[-1]] + 1e-9, WINDOW)
     for a, b in zip(edges[:-1], edges[1:]):
         k = np.nonzero((grid >= a) & (grid <= b))[0]
-        if len(k) < 3:
+        if len(k) < 3 or np.mean(np.hypot(*force[k].T)) > HELD * mass * GRAVITY:
             continue
         t = grid[k]
         rows.append((np.trapezoid(power[k], t) - (kinetic[k[-1]] - kinetic[k[0]]),

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from bridge.diagnosis.work import PINNED, WorkFit, balance, work_fit
+from bridge.diagnosis.work import PINNED, WorkFit, balance, windows_of, work_fit
 from bridge.prove.scenes import Case
 
 
@@ -115,3 +115,25 @@ def test_diagnosis_json_and_report_carry_the_work(odb, tmp_path, evidence_report
     assert work["evident"] and work["coefficient"] == pytest.approx(fit.coefficient, rel=1e-3)
     assert "sloping" in work["sentence"] and "a seed for `surface_tilt`" in work["sentence"]
     assert work["sentence"] in report
+
+
+def test_windows_where_something_else_holds_the_object_are_left_out(monkeypatch):
+    """A block slides along x at 20 mm/s pushed with 0.3 of its weight, then jams (an obstacle the model lacks):
+    it creeps on at 5 mm/s (it turns, it slides along what holds it) while the rod presses with 100 times its
+    weight. The jammed windows would read a coefficient of about 100; beyond HELD times the weight no support
+    friction holds an object, so they are left out and the windows read 0.3."""
+    from bridge.values import GRAVITY
+
+    mass, t = 0.5, np.arange(0.0, 2.0, 0.004)
+    speed = np.where(t < 1.0, 0.02, 0.005)
+    x = np.concatenate([[0.0], np.cumsum(speed[1:] * np.diff(t))])
+    xy, yaw = np.column_stack([x, np.zeros_like(x)]), np.zeros_like(t)
+    push = np.where(t < 1.0, 0.3, 100.0) * mass * GRAVITY
+    force = np.column_stack([push, np.zeros_like(t)])
+    rod = xy - [0.03, 0.0]
+    footprint = (np.array([[0.0, 0.0]]), np.array([1.0]))
+    rows = windows_of(t, xy, yaw, rod, force, footprint, mass)
+    assert len(rows) >= 3 and np.all(rows[:, 0] / rows[:, 1] == pytest.approx(0.3, rel=0.05))
+    monkeypatch.setattr("bridge.diagnosis.work.HELD", 1e9)  # no gate: the jam's windows read about 100
+    ungated = windows_of(t, xy, yaw, rod, force, footprint, mass)
+    assert len(ungated) > len(rows) and np.max(ungated[:, 0] / ungated[:, 1]) > 50.0
