@@ -682,18 +682,13 @@ def _extent(world: WorldState, odb: ObjectDatabase, target: str) -> tuple[float,
 
 
 class Obstacle(Family):
-    """A welded upright obstacle at (x, y) on the surface, taller than anything on it: a square of half side
-    `radius` (default `OBSTACLE_RADIUS`) turned by `yaw`, its corners rounded by `round` x `radius` (1, the
-    default: a round post; 0: a sharp box), with its own friction coefficient `mu`. An unseen obstacle's surface
-    is as unknown as its place (whether an object slides past it or pivots on it depends on that coefficient),
-    its size too (a push that passes beside it says whether it touches), and its shape: an object pressed
-    against a box's face turns with the face where a post lets it roll round (an independent MuJoCo hexagon
-    jammed against a 26 mm box: the true box at its place removes 45 % of the chi^2 that no obstacle leaves, a
-    post of its half side there 10 %)."""
+    """A welded upright post of radius `radius` (default `OBSTACLE_RADIUS`) at (x, y) on the surface, taller than
+    anything on it, with its own friction coefficient `mu` (an unseen obstacle's surface is as unknown as its place:
+    whether an object slides past it or pivots on it depends on that coefficient; and its size, where a push that
+    passes beside it says whether it touches)."""
 
     name = "hidden_obstacle"
-    members = {"x": "obstacle_x", "y": "obstacle_y", "mu": "obstacle_mu", "radius": "obstacle_radius",
-               "yaw": "obstacle_yaw", "round": "obstacle_round"}
+    members = {"x": "obstacle_x", "y": "obstacle_y", "mu": "obstacle_mu", "radius": "obstacle_radius"}
 
     @classmethod
     def realise(cls, values, target, rollout, odb):
@@ -704,44 +699,9 @@ class Obstacle(Family):
         tallest = max([z_range(odb.get(world.objects[n].type).geometry, world.objects[n].pose)[1]
                        for n in movable_objects(world, odb)] + [top + 0.05])
         height = tallest - top + 0.05
-        radius, corner = values.get("radius", OBSTACLE_RADIUS), values.get("round", 1.0)
-        return rollout.with_extras(WeldedShape("hidden_obstacle", "rounded", (radius, corner, height),
-                                               (x, y, top + height / 2), (0.0, 0.0, values.get("yaw", 0.0)),
+        radius = values.get("radius", OBSTACLE_RADIUS)
+        return rollout.with_extras(WeldedShape("hidden_obstacle", "cylinder", (radius, height), (x, y, top + height / 2),
                                                friction=values.get("mu", OBSTACLE_FRICTION)))
-
-
-class ObstacleYaw(_Member):
-    name, component, family, unit = "obstacle_yaw", "yaw", Obstacle, "rad"
-    physical = PhysicalRange(-2 * math.pi, 2 * math.pi, "rad", "in rad: an angle about the vertical")
-    doc = "an obstacle the world model lacks: its turn about the vertical (a box's faces; nothing for a round post)"
-
-    def null(self, world, odb, target):
-        return 0.0
-
-    def bounds(self, world, odb, target):
-        return -2 * math.pi, 2 * math.pi  # a square's turn is periodic: wide bounds so a fit never stops on one
-
-    def step(self, world, odb, target):
-        return 0.1
-
-
-class ObstacleRound(_Member):
-    name, component, family, unit = "obstacle_round", "round", Obstacle, ""
-    physical = PhysicalRange(0.0, 1.0, "", "a share: 0 a sharp square, 1 a circle")
-    # both ends are shapes obstacles have (a box, a post): a fit that ends on one has found it, it is not asking for
-    # more (`search.FitResult.at_bound`); and without a placed obstacle the shape changes nothing
-    inert_without = "obstacle_x"
-    doc = ("an obstacle the world model lacks: its corners' radius as a share of its half side (1: a round post, "
-           "0: a sharp box)")
-
-    def null(self, world, odb, target):
-        return 1.0
-
-    def bounds(self, world, odb, target):
-        return 0.0, 1.0
-
-    def step(self, world, odb, target):
-        return 0.15
 
 
 class _Place(_Member):
@@ -801,7 +761,7 @@ class ObstacleMu(_Member):
 
 class ObstacleRadius(_Member):
     name, component, family, unit = "obstacle_radius", "radius", Obstacle, "m"
-    doc = "an obstacle the world model lacks: its radius (a post) or half its side (a box)"
+    doc = "a post the world model lacks: its radius"
     physical = PhysicalRange(0.0, 0.5, "m", "in m: a post half a metre wide is a wall of the scene, not a hidden part",
                              open_low=True)
 
@@ -1266,7 +1226,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Mass(), MassSpread(), ComX(), ComY(), ComZ(), ForceX(), ForceY(), ForceZ(),
     Latency(), JointOffset(),
     SurfaceSlopeX(), SurfaceSlopeY(), SurfaceDz(),
-    ObstacleX(), ObstacleY(), ObstacleMu(), ObstacleRadius(), ObstacleYaw(), ObstacleRound(),
+    ObstacleX(), ObstacleY(), ObstacleMu(), ObstacleRadius(),
     PatchCx(), PatchCy(), PatchHalf(), PatchBreadth(), PatchYaw(), PatchMu(),
     SupportScale(), SupportX(), SupportY(),
     AnisoC(), AnisoS(), FieldGx(), FieldGy(), RateDrop(), RateSpeed(),

@@ -13,7 +13,7 @@ the model the diagnosis fits wherever it can (the effect's own `conceal`, in its
 | latency         | telemetry stamped dt early (resampled at the recorder's    | telemetry shifted by dt                      |
 | (cont.)         | clock, 100 Hz)                                              |                                              |
 | pusher_offset   | the robot's base mounted off by (dx, dy)                   | offsets added to the joint readings          |
-| hidden_obstacle | a welded box of random size and yaw                         | a welded post or box of fitted size and turn |
+| hidden_obstacle | a welded box of random size and yaw                         | a welded post of fitted radius               |
 | object_frame    | the recorder reports a frame fixed on the body off its      | the body started from the recorded pose      |
 | (cont.)         | centre and turned (`Effect.recorded_track`)                 | moved, compared in the frame (`frames`)      |
 | object_scale    | the object another size (pushes designed around it)         | the same: a size has no other mechanism      |

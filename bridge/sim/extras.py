@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.geometry import (AddCompliantHydroelasticProperties, AddContactMaterial, AddRigidHydroelasticProperties, Box,
-                              Convex, Cylinder, ProximityProperties)
+                              Cylinder, ProximityProperties)
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import SpatialInertia
@@ -29,27 +29,10 @@ def _props(friction: float, modulus: float | None, resolution: float, dissipatio
     return props
 
 
-CORNER_SEGMENTS = 6  # chords per rounded corner: a round post is a 24-gon (its radius within 0.9 % everywhere)
-
-
-def rounded_square(half: float, corner: float, length: float) -> np.ndarray:
-    """(3, n) points whose convex hull is an upright square prism of half side `half` and `length`, its vertical
-    edges rounded with radius `corner` x `half` (convex for any share, so Drake takes it as a `Convex`)."""
-    r = corner * half
-    arcs = []
-    for k, (sx, sy) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
-        a = np.linspace(k * np.pi / 2, (k + 1) * np.pi / 2, CORNER_SEGMENTS + 1)
-        arcs.append(np.column_stack([sx * (half - r) + r * np.cos(a), sy * (half - r) + r * np.sin(a)]))
-    ring = np.unique(np.round(np.vstack(arcs), 12), axis=0)
-    return np.vstack([np.vstack([ring.T, np.full(len(ring), z)]).T for z in (-length / 2, length / 2)]).T
-
-
 @dataclass(frozen=True)
 class WeldedShape:
-    """A box (size x, y, z), an upright cylinder (radius, length) or an upright rounded square (half its side,
-    its corners' radius as a share of that half, length: from a sharp square at 0 to a round post at 1) welded to
-    the world at `xyz` / `rpy`; rigid hydroelastic (like the scene's fixtures) unless a `modulus` makes it
-    compliant."""
+    """A box (size x, y, z) or an upright cylinder (radius, length) welded to the world at `xyz` / `rpy`;
+    rigid hydroelastic (like the scene's fixtures) unless a `modulus` makes it compliant."""
 
     name: str
     shape: str
@@ -66,12 +49,9 @@ class WeldedShape:
             shape = Box(*self.size)
         elif self.shape == "cylinder" and len(self.size) == 2:
             shape = Cylinder(*self.size)
-        elif self.shape == "rounded" and len(self.size) == 3 and self.size[0] > 0 and 0.0 <= self.size[1] <= 1.0:
-            shape = Convex(rounded_square(*self.size), f"{self.name} (rounded square)")
         else:
-            raise SceneError(f"extra {self.name!r}: shape must be 'box' (3 sizes), 'cylinder' (radius, length) or "
-                             f"'rounded' (half side > 0, corner share in [0, 1], length), got {self.shape!r} with "
-                             f"sizes {self.size}")
+            raise SceneError(f"extra {self.name!r}: shape must be 'box' (3 sizes) or 'cylinder' (radius, length), "
+                             f"got {self.shape!r} with {len(self.size)} sizes")
         X = RigidTransform(RollPitchYaw(*self.rpy), np.asarray(self.xyz, dtype=float))
         resolution = self.resolution or config.resolution_hint
         plant.RegisterCollisionGeometry(plant.world_body(), X, shape, f"{self.name}/collision",

@@ -54,8 +54,7 @@ def test_family_members_build_one_thing_with_the_others_at_null(rollout, world, 
     post = apply_model((Setting("obstacle_x", "table", 0.9),), rollout, odb)
     (extra,) = post.extras
     null_y = kind_named("obstacle_y").null(world, odb, "table")
-    assert extra.shape == "rounded" and extra.size[:2] == (0.015, 1.0)  # a round post unless told otherwise
-    assert extra.xyz[:2] == (0.9, null_y)
+    assert extra.shape == "cylinder" and extra.xyz[:2] == (0.9, null_y)
     both = apply_model((Setting("obstacle_y", "table", 0.1), Setting("obstacle_x", "table", 0.9)), rollout, odb)
     assert len(both.extras) == 1 and both.extras[0].xyz[:2] == (0.9, 0.1)  # one post, whatever the order
     tilt = apply_model((Setting("surface_slope_x", "table", 0.02), Setting("surface_slope_y", "table", -0.01)),

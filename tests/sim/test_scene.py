@@ -206,9 +206,7 @@ def test_robot_link_friction_is_written_into_the_context(scene):
 
 @pytest.mark.parametrize("extra, message", [
     (WeldedShape("post", "sphere", (0.02,), (0.5, 0.3, 0.8)), "extra 'post': shape must be 'box' .* got 'sphere'"),
-    (WeldedShape("post", "box", (0.02, 0.02), (0.5, 0.3, 0.8)),
-     r"extra 'post': .* got 'box' with sizes \(0.02, 0.02\)"),
-    (WeldedShape("post", "rounded", (0.02, 1.5, 0.1), (0.5, 0.3, 0.8)), r"corner share in \[0, 1\].* got 'rounded'"),
+    (WeldedShape("post", "box", (0.02, 0.02), (0.5, 0.3, 0.8)), "extra 'post': .* got 'box' with 2 sizes"),
     (Slug("ghost", 0.1, (0.0, 0.0, 0.0)), "slug: no free object 'ghost'"),
     (Slug("big_box", 0.0, (0.0, 0.0, 0.0)), "slug in 'big_box': mass must be > 0"),
     (SurfacePatch("sheet", (0.6, 0.5, -0.1, 0.1), 0.75, 0.2), "surface patch 'sheet': region must have x1 > x0"),

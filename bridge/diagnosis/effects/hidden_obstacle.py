@@ -1,19 +1,19 @@
 """`hidden_obstacle`: a fixed object that is not in the world model (a clamp, a cable, a forgotten part).
 
-Modelled as a welded upright post or box at (x, y) on the surface with a size, a turn, rounded corners and a
-friction coefficient of its own (`bridge.params.kinds.Obstacle`: a square prism whose corners run from sharp to a
-full circle): a scene extra, so each value is a new scene (building one takes a few tens of milliseconds). The
-coefficient is fitted because it decides what a deflection looks like: an object that meets a slippery post slides
-past it, one that meets a grippy post pivots on it. In an independent MuJoCo world (an ellipse deflected by a post
-of about our radius) the post at its true place with the default coefficient left 3.3 times the residual of no post
-at all (20 deg of turn too many), and 0.8 times with a coefficient of 0.15. The radius is fitted because obstacles
-come in every size: a post of the default 15 mm placed where a 45 mm box stopped the object blocks pushes that
-passed beside the box (the matched proof's seed-2 boxes: found, then refused on the held-out pushes). A push that
-stops against an obstacle tells where its face is, not where its centre is, so posts of other radii are seeded
-touching the same spot (`RADII`): the gradient through a contact alone did not move a 15 mm post's radius. Measured
-(session 53, docs/diagnosis.md section 6): the matched proof's 30 mm box (seed 2) fitted as an 8.7 mm post, its
-held-out error down 90 % where the 15 mm post's rose 21 %; a mismatched ellip1's fit with the radius free stalled at
-its screened point (`none`, where the 15 mm post was named and predicted its held-out pushes 67 % worse).
+Modelled as a welded upright post at (x, y) on the surface with a radius and a friction coefficient of its own
+(`bridge.params.kinds.Obstacle`): a scene extra, so each value is a new scene (building one takes a few tens of
+milliseconds). The coefficient is fitted because it decides what a deflection looks like: an object that meets a
+slippery post slides past it, one that meets a grippy post pivots on it. In an independent MuJoCo world (an
+ellipse deflected by a post of about our radius) the post at its true place with the default coefficient left 3.3
+times the residual of no post at all (20 deg of turn too many), and 0.8 times with a coefficient of 0.15. The
+radius is fitted because obstacles come in every size: a post of the default 15 mm placed where a 45 mm box
+stopped the object blocks pushes that passed beside the box (the matched proof's seed-2 boxes: found, then
+refused on the held-out pushes). A push that stops against an obstacle tells where its face is, not where its
+centre is, so posts of other radii are seeded touching the same spot (`RADII`): the gradient through a contact
+alone did not move a 15 mm post's radius. Measured (session 53, docs/diagnosis.md section 6): the matched proof's
+30 mm box (seed 2) fitted as an 8.7 mm post, its held-out error down 90 % where the 15 mm post's rose 21 %; a
+mismatched ellip1's fit with the radius free stalled at its screened point (`none`, where the 15 mm post was named
+and predicted its held-out pushes 67 % worse).
 """
 from __future__ import annotations
 
@@ -33,7 +33,6 @@ SLIPPERY = 0.1  # the low coefficient the first spots are also seeded with (the 
 RADII = (0.008, 0.025)  # m: the radii the best spot is also seeded with, the post touching where the default's does
 #                        (besides OBSTACLE_RADIUS: a screw or a cable to a box a hand's width across)
 SIZES = (0.02, 0.03, 0.045)  # m: the proof's boxes (small, medium, large)
-BOX_ROUND = 0.2  # the box seeds' corners (share of the half side): off the bound, so a step can sharpen or round them
 LATERAL = 0.015  # m: seeds beside the jam's spot, across the push (a post's radius)
 SWEPT_GRID = 0.004  # m: the spacing of the post centres `_swept_spot` tries (finer than TOUCH)
 PLACE_REACH = 0.025  # m: the full fit keeps the post within this of its screened place (`fit_region`): the seeds
@@ -47,13 +46,12 @@ TOUCH = 0.004  # m: how far off every jammed pose the one post may lie (the pose
 class HiddenObstacle(Effect):
     name = "hidden_obstacle"
     summary = "a fixed object that is not in the world model blocks the way"
-    mechanism = ("scene extra: a welded post or box at (x, y) with its own size, turn, corners and friction "
-                 "coefficient")
+    mechanism = "scene extra: a welded post at (x, y) with its own radius and friction coefficient"
     signature_text = ("abrupt onset in the middle of a push at the same place in several recordings; the real "
                       "object stalls or is deflected while the simulated one moves on")
     smooth = False
     local = True
-    kinds = ("obstacle_x", "obstacle_y", "obstacle_mu", "obstacle_radius", "obstacle_yaw", "obstacle_round")
+    kinds = ("obstacle_x", "obstacle_y", "obstacle_mu", "obstacle_radius")
 
     def targets(self, world, odb, observed):
         return surfaces_under(world, odb, observed)
@@ -80,8 +78,7 @@ class HiddenObstacle(Effect):
         also tried with a SLIPPERY post (each at the default coefficient as well): the screen's one step per
         coordinate cannot cross from pivoting to sliding past. The first spot is also tried with posts of the other
         `RADII`, each moved away from (or towards) the nearest observed object so that it touches where the default
-        post touches, and with a box (`_box`): an object pressed on a box's face turns with the face, where a post
-        lets it roll round, and the screen's steps from a round post do not find a face's turn."""
+        post touches."""
         outline = _outline(evidence)
         swept = _swept_spot(outline, evidence.features)
         jams = [f for f in evidence.features if f.get("jam_xy_obs") is not None]
@@ -110,11 +107,8 @@ class HiddenObstacle(Effect):
             seen = seen[:(5 if jams else 3) + (swept is not None)]
         sized = [{**_post(target, _resized(seen[0], r, evidence.features)), pname("obstacle_radius", target): r}
                  for r in RADII] if seen else []
-        boxes = [_box(target, seen[0], jams or evidence.significant())] if seen else []
-        if boxes and jams:
-            boxes.append({**boxes[0], pname("obstacle_mu", target): SLIPPERY})
         return ([_post(target, s) for s in seen] + [{**_post(target, s), pname("obstacle_mu", target): SLIPPERY}
-                                                    for s in seen[:2]] + sized + boxes)
+                                                    for s in seen[:2]] + sized)
 
     def fit_region(self, start, target):
         names = [pname(k, target) for k in ("obstacle_x", "obstacle_y")]
@@ -158,17 +152,6 @@ class HiddenObstacle(Effect):
 
 def _post(target: str, xy) -> dict[str, float]:
     return {pname("obstacle_x", target): float(xy[0]), pname("obstacle_y", target): float(xy[1])}
-
-
-def _box(target: str, spot, features) -> dict[str, float]:
-    """A box of the default post's half side at `spot`, a face square to the way the object was pressed into it
-    (the rod's force at the jams, else the pushes' way) and its corners a little rounded (`BOX_ROUND`): where a
-    post of that radius touches the pressed object straight ahead, the face of the box touches it too."""
-    ways = [f["jam_force_dir"] if f.get("jam_force_dir") is not None else f["direction"] for f in features
-            if f.get("jam_force_dir") is not None or f.get("direction") is not None]
-    d = np.mean(ways, axis=0) if ways else np.array([1.0, 0.0])
-    return {**_post(target, spot), pname("obstacle_yaw", target): float(math.atan2(d[1], d[0])),
-            pname("obstacle_round", target): BOX_ROUND}
 
 
 def _resized(spot: np.ndarray, radius: float, features) -> np.ndarray:
