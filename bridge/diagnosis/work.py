@@ -50,8 +50,8 @@ AGREES = 0.025  # a fitted sliding coefficient this close to the work's agrees w
 #                of the truth in every simulated world without a patch (module docstring)
 HELD = 2.0  # a window whose mean force exceeds this many times the object's weight is left out: real material pairs
 #            slide at coefficients up to about 2 (`odb.ranges.FRICTION`), so something else holds the object
-#            there (a jam against an obstacle: independent MuJoCo pushes jammed at 100-1000 N on a 4 N hexagon read
-#            coefficients of 3-9 with those windows in)
+#            there (a jam against an obstacle: independent MuJoCo pushes jammed at up to 1,100 N on a 4 N hexagon read
+#            coefficients of 2.5-9 with those windows in)
 
 
 @dataclass(frozen=True)
