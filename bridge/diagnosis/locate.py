@@ -385,7 +385,7 @@ def _features(p, s, comps, sigma, measured, chi_t, chi2, n, onset_i, push, sim_x
              for R in (s.R, sim_R)]
     f["turn_ratio"] = turns[0] / turns[1] if abs(turns[1]) > max(TURN_LEVEL, 5.0 * sigma["yaw"]) else None
     # the planar poses (x, y, yaw) observed and simulated, where an obstacle's seed looks for a place the simulated
-    # object went and the real one did not (`hidden_obstacle._swept_spot`)
+    # object went and the real one did not (`hidden_obstacle._swept_spots`)
     f["poses_obs"] = np.column_stack([s.xyz[:, :2], np.arctan2(s.R[:, 1, 0], s.R[:, 0, 0])])
     f["poses_sim"] = np.column_stack([sim_xyz[:, :2], np.arctan2(sim_R[:, 1, 0], sim_R[:, 0, 0])])
     f["final_along"] = float(comps["along"][-1] / sigma["along"])

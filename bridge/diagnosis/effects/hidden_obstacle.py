@@ -34,7 +34,8 @@ RADII = (0.008, 0.025)  # m: the radii the best spot is also seeded with, the po
 #                        (besides OBSTACLE_RADIUS: a screw or a cable to a box a hand's width across)
 SIZES = (0.02, 0.03, 0.045)  # m: the proof's boxes (small, medium, large)
 LATERAL = 0.015  # m: seeds beside the jam's spot, across the push (a post's radius)
-SWEPT_GRID = 0.004  # m: the spacing of the post centres `_swept_spot` tries (finer than TOUCH)
+SWEPT_GRID = 0.004  # m: the spacing of the post centres `_swept_spots` tries (finer than TOUCH)
+SWEPT_SPOTS = 2  # the places `_swept_spots` seeds, each beyond PLACE_REACH of the others
 PLACE_REACH = 0.025  # m: the full fit keeps the post within this of its screened place (`fit_region`): the seeds
 #                    stood 0.3-11 mm from the posts of the MuJoCo and mismatched worlds; a post moved further
 #                    explains other pushes than the ones that showed it (a mismatched rect1 world: 67 mm away,
@@ -66,7 +67,7 @@ class HiddenObstacle(Effect):
         return min(1.0, 0.3 + 0.3 * len(late) / max(1, len(evidence.significant())) + 0.4 * stall)
 
     def seeds(self, evidence: Evidence, target: str) -> list[dict[str, float]]:
-        """Where the simulated objects went and the real ones did not (`_swept_spot`); posts touching the real
+        """Where the simulated objects went and the real ones did not (`_swept_spots`); posts touching the real
         objects' leading sides where the robot's force jammed (the surest sign: a rod held back by the object it
         pushes; with two jams or more, the one point that touches every jammed pose first), else where their
         residual began mid-push: the median spot and the first few.
@@ -78,9 +79,16 @@ class HiddenObstacle(Effect):
         also tried with a SLIPPERY post (each at the default coefficient as well): the screen's one step per
         coordinate cannot cross from pivoting to sliding past. The first spot is also tried with posts of the other
         `RADII`, each moved away from (or towards) the nearest observed object so that it touches where the default
-        post touches."""
+        post touches.
+
+        Every seed is then moved to the nearest place where no real object overlapped it (`_Observed`): a fixed
+        obstacle cannot stand where an object was recorded, in any recording, significant or not. Ahead of where
+        an object stalled is often where it then went on (a deflection, not a stop): on the mismatched proof's
+        failing obstacle cases every seed lay 2-67 mm inside a recorded path, and the screens, blocking pushes
+        that went free, scored 10^5-10^8 chi^2 where the friction fit left 10^3-10^4."""
         outline = _outline(evidence)
-        swept = _swept_spot(outline, evidence.features)
+        observed = None if outline is None else _Observed(outline, evidence.features)
+        swept = _swept_spots(outline, evidence.features, observed=observed)
         jams = [f for f in evidence.features if f.get("jam_xy_obs") is not None]
         spots = [_across(outline, f) if f.get("jam_force_dir") is not None and outline is not None else
                  _ahead(outline, f["jam_xy_obs"], f.get("jam_yaw_obs"), f["direction"], f["jam_reach"]) for f in jams]
@@ -92,7 +100,7 @@ class HiddenObstacle(Effect):
                 continue
             spots.append(_ahead(outline, f["onset_xy_obs"], f.get("onset_yaw_obs"), f["direction"],
                                 f.get("reach", 0.05)))
-        seen: list[np.ndarray] = [] if swept is None else [swept]
+        seen: list[np.ndarray] = list(swept)
         if spots:
             spots = np.array(spots)
             middle = met if met is not None else np.median(spots, axis=0)
@@ -104,11 +112,21 @@ class HiddenObstacle(Effect):
             for s in candidates:
                 if all(np.linalg.norm(s - q) > 0.01 for q in seen):
                     seen.append(s)
-            seen = seen[:(5 if jams else 3) + (swept is not None)]
-        sized = [{**_post(target, _resized(seen[0], r, evidence.features)), pname("obstacle_radius", target): r}
-                 for r in RADII] if seen else []
-        return ([_post(target, s) for s in seen] + [{**_post(target, s), pname("obstacle_mu", target): SLIPPERY}
-                                                    for s in seen[:2]] + sized)
+            seen = seen[:(5 if jams else 3) + len(swept)]
+        sized = [(_resized(seen[0], r, evidence.features), r) for r in RADII] if seen else []
+        placed = [(s, OBSTACLE_RADIUS, None) for s in seen] + [(s, OBSTACLE_RADIUS, SLIPPERY) for s in seen[:2]] + \
+            [(s, r, None) for s, r in sized]
+        out: list[dict[str, float]] = []
+        for spot, radius, mu in placed:
+            clear = spot if observed is None else observed.nearest_clear(spot, radius)
+            if clear is None:
+                continue
+            seed = {**_post(target, clear), **({} if radius == OBSTACLE_RADIUS else
+                                                {pname("obstacle_radius", target): radius}),
+                    **({} if mu is None else {pname("obstacle_mu", target): mu})}
+            if seed not in out:
+                out.append(seed)
+        return out
 
     def fit_region(self, start, target):
         names = [pname(k, target) for k in ("obstacle_x", "obstacle_y")]
@@ -167,41 +185,80 @@ def _resized(spot: np.ndarray, radius: float, features) -> np.ndarray:
     return np.asarray(spot, dtype=float) + (away / norm if norm > 0 else 0.0) * (radius - OBSTACLE_RADIUS)
 
 
-def _swept_spot(outline: np.ndarray | None, features, grid: float = SWEPT_GRID) -> np.ndarray | None:
+def _swept_spots(outline: np.ndarray | None, features, grid: float = SWEPT_GRID, observed: _Observed | None = None,
+                 count: int = SWEPT_SPOTS) -> list[np.ndarray]:
     """Where a post keeps the real objects out of a place the simulated ones went: on a grid of post centres over
     every path, a post is ruled out where a real object (observed poses) overlapped it by more than TOUCH in any
-    recording, and scores a recording's residual (noise floors, significant recordings) where the simulated
-    object overlapped it by more than TOUCH while the real one touched it (came within TOUCH of it: what
-    deflects an object touches it; a place the simulated object merely went further to is no post's). Of the
-    best score's plateau, the point the real objects touched first (a deflection starts at the touch); None when
-    no post scores (no outline, nothing significant, or every place the simulation went the real objects went
-    too). Geometry alone, before any simulation of a post: it holds when the object slides past the post with no
-    jam of the force (independent MuJoCo worlds: an ellipse deflected 20 mm sideways by a post, the spot 2.5 mm
-    from it; a square's and a hexagon's 10-11 mm)."""
+    recording (significant or not: a push that went free shows where no post is), and scores a recording's
+    residual (noise floors, significant recordings) where the simulated object overlapped it by more than TOUCH
+    while the real one touched it (came within TOUCH of it: what deflects an object touches it; a place the
+    simulated object merely went further to is no post's). Of the best score's plateau, the point the real
+    objects touched first (a deflection starts at the touch); then the same beyond PLACE_REACH of the spots
+    found, up to `count`: in worlds that differ from the model elsewhere too the residual scores places all along
+    the paths, and the first pick is no surer than the second (the mismatched proof's tri1 box: its plateau held
+    places 15 and 186 mm from the box, the first pick the latter). Empty when no post scores (no outline, nothing
+    significant, or every place the simulation went the real objects went too). Geometry alone, before any
+    simulation of a post: it holds when the object slides past the post with no jam of the force (independent
+    MuJoCo worlds: an ellipse deflected 20 mm sideways by a post, the spot 2.5 mm from it; a square's and a
+    hexagon's 10-11 mm)."""
     tracks = [f for f in features if f.get("significant") and f.get("poses_obs") is not None]
     if outline is None or not tracks:
-        return None
+        return []
     reach = float(np.max(np.linalg.norm(outline, axis=1))) + OBSTACLE_RADIUS
     xy = np.vstack([np.asarray(f[k])[:, :2] for f in tracks for k in ("poses_obs", "poses_sim")])
     lo, hi = xy.min(axis=0) - reach, xy.max(axis=0) + reach
     gx, gy = np.meshgrid(np.arange(lo[0], hi[0], grid), np.arange(lo[1], hi[1], grid), indexing="ij")
     points = np.column_stack([gx.ravel(), gy.ravel()])
-    score, ruled_out = np.zeros(len(points)), np.zeros(len(points), dtype=bool)
-    field = _DistanceField(outline, reach + 2 * TOUCH)
-    first = np.zeros(len(points))  # when the real objects first touched each post (share of the path, summed)
-    for f in tracks:
-        observed, touch = field.least(np.asarray(f["poses_obs"]), points, OBSTACLE_RADIUS + TOUCH)
+    observed = observed or _Observed(outline, features)
+    field = observed.field
+    score, first = np.zeros(len(points)), np.zeros(len(points))  # first: when the real objects first touched
+    for f in tracks:                                                # each post (share of the path, summed)
+        real, touch = field.least(np.asarray(f["poses_obs"]), points, OBSTACLE_RADIUS + TOUCH)
         simulated, _ = field.least(np.asarray(f["poses_sim"]), points, OBSTACLE_RADIUS + TOUCH)
-        ruled_out |= observed < OBSTACLE_RADIUS - TOUCH
-        hit = (simulated < OBSTACLE_RADIUS - TOUCH) & (observed >= OBSTACLE_RADIUS - TOUCH) & \
-            (observed < OBSTACLE_RADIUS + TOUCH)
+        hit = (simulated < OBSTACLE_RADIUS - TOUCH) & (real >= OBSTACLE_RADIUS - TOUCH) & \
+            (real < OBSTACLE_RADIUS + TOUCH)
         score += f["rms"] * hit
         first += np.where(hit, touch, 0.0)
-    score[ruled_out] = 0.0
-    if not np.any(score > 0):
-        return None
-    best = np.flatnonzero(score >= score.max() - 1e-9)
-    return points[best[int(np.argmin(first[best]))]]  # the one touched first: a deflection starts at the touch
+    score[observed.overlapped(points, OBSTACLE_RADIUS)] = 0.0
+    spots: list[np.ndarray] = []
+    for _ in range(count):
+        left = score > 0
+        for q in spots:
+            left &= np.linalg.norm(points - q, axis=1) > PLACE_REACH
+        if not np.any(left):
+            break
+        best = np.flatnonzero(left & (score >= score[left].max() - 1e-9))
+        spots.append(points[best[int(np.argmin(first[best]))]])  # touched first: a deflection starts at the touch
+    return spots
+
+
+class _Observed:
+    """Where the real objects went, every recording's observed poses: a fixed obstacle cannot stand there."""
+
+    def __init__(self, outline: np.ndarray, features):
+        self.tracks = [np.asarray(f["poses_obs"]) for f in features if f.get("poses_obs") is not None]
+        self.field = _DistanceField(outline, float(np.max(np.linalg.norm(outline, axis=1))) + max(RADII)
+                                    + 2 * TOUCH)
+
+    def overlapped(self, points: np.ndarray, radius: float) -> np.ndarray:
+        """Which posts of `radius` centred at `points` a real object overlapped by more than TOUCH."""
+        out = np.zeros(len(points), dtype=bool)
+        for poses in self.tracks:
+            out |= self.field.least(poses, points, radius)[0] < radius - TOUCH
+        return out
+
+    def nearest_clear(self, spot, radius: float, grid: float = 0.002) -> np.ndarray | None:
+        """`spot` itself when no real object overlapped a post there, else the nearest place within PLACE_REACH
+        (on a `grid`) where none did; None when there is none."""
+        spot = np.asarray(spot, dtype=float)
+        if not self.overlapped(spot[None], radius)[0]:
+            return spot
+        axis = np.arange(-PLACE_REACH, PLACE_REACH + grid / 2, grid)
+        offsets = np.stack(np.meshgrid(axis, axis, indexing="ij"), axis=-1).reshape(-1, 2)
+        offsets = offsets[np.argsort(np.linalg.norm(offsets, axis=1))]
+        offsets = offsets[np.linalg.norm(offsets, axis=1) <= PLACE_REACH]
+        clear = np.flatnonzero(~self.overlapped(spot + offsets, radius))
+        return spot + offsets[clear[0]] if len(clear) else None
 
 
 class _DistanceField:
