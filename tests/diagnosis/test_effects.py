@@ -294,7 +294,7 @@ def test_no_post_is_seeded_where_a_real_object_went(planar_world, odb):
     stalls (a post ahead of it, the seed's guess) while another push, in line with the model, went through that
     very place: every seed is moved clear of the free push, still touching the stalled pose. Seeds inside the
     recorded paths blocked pushes that went free (the mismatched proof's obstacle cases: every seed 2-67 mm inside
-    a path, screens at 10^5-10^8 chi^2 where the friction fit left 10^3-10^4)."""
+    a path, 10^5-10^8 chi^2 on the pushes they blocked where the pushes they missed scored 10^3-10^4)."""
     import numpy as np
 
     from bridge.diagnosis.effects import Evidence

@@ -85,7 +85,7 @@ class HiddenObstacle(Effect):
         obstacle cannot stand where an object was recorded, in any recording, significant or not. Ahead of where
         an object stalled is often where it then went on (a deflection, not a stop): on the mismatched proof's
         failing obstacle cases every seed lay 2-67 mm inside a recorded path, and the screens, blocking pushes
-        that went free, scored 10^5-10^8 chi^2 where the friction fit left 10^3-10^4."""
+        that went free, scored 10^5-10^8 chi^2 on those pushes where the pushes they missed scored 10^3-10^4."""
         outline = _outline(evidence)
         observed = None if outline is None else _Observed(outline, evidence.features)
         swept = _swept_spots(outline, evidence.features, observed=observed)
