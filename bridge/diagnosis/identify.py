@@ -14,6 +14,8 @@ Recipe (`identify`):
    rod jammed, a region where the residual began), with the friction coefficients stepped to suit the seed;
 4. fit the best screened candidates fully with the friction coefficients (Levenberg-Marquardt);
 5. cross-validate (`crossval`): every model worth its parameters predicts each recording it was not fitted on;
+   the floor is the form of the friction model that predicts best: fitted, fitted at the database's contact, or
+   with the sliding coefficient held at what the work the robot did reads (`_read_friction`, a measurement);
 6. the verdict: the effect that predicts best among those that remove at least CV_GAIN of what the ordinary model
    leaves (a geometric mean over the recordings) and agree with the evidence;
    else the ordinary model (`friction`, where its coefficients moved beyond their negligible size: the contact's
@@ -457,14 +459,24 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         other = (_held_out(runner, held_out, [_from_fit("friction", None, result, world, odb)])[0], result)
         say(f"friction at the database's contact: {_fmt(result.values())}, rms {other[0].rms:.1f} "
             f"[{runner.simulations} simulations]")
+    read = [] if limit.expired() else _read_friction(ev, work, friction_params, fits[("friction", None)].values(),
+                                                       world, odb)
+    read = [(_held_out(runner, held_out, [s])[0], r) for s, r in read]
+    for (s, r), where in zip(read, ("the database's", "the friction fit's")):
+        say(f"friction as the work reads it: {_fmt(s.params)} (the rod's pair and the contact {where}), rms "
+            f"{s.rms:.1f} [{runner.simulations} simulations]")
     fitted = [_checked_against(s, loader, frame, world, odb) for s in fitted]
     tau = correlation_time(ev.runs(min(fitted, key=lambda s: s.chi2).model))
     scored = _score(fitted, tau)
-    if other is not None:  # scored against `none` (fitted[0]) as the rest were
-        other = (next(m for m in _score([fitted[0], other[0]], tau) if m.effect == "friction"), other[1])
-    scored, fits = _cross_validate(runner, ev, scored, fits, loc, _names(runner, held_out), world, odb, other)
-    if other is not None and not any(p.free and p.kind.contact_model
-                                           for p in fits[("friction", None)].space.entries):
+    # the other variants of the friction model, scored against `none` (fitted[0]) as the rest were
+    variants = [(next(m for m in _score([fitted[0], v[0]], tau) if m.effect == "friction"), v[1])
+                for v in (other, *read) if v is not None]
+    scored, fits = _cross_validate(runner, ev, scored, fits, loc, _names(runner, held_out), world, odb, variants)
+    floor_fit = fits[("friction", None)]
+    if any(floor_fit is r for _, r in read):
+        say("the floor is the friction the work reads: it predicts the recordings it was not fitted on better than "
+            "the fitted coefficients")
+    elif other is not None and not any(p.free and p.kind.contact_model for p in floor_fit.space.entries):
         say("the floor is the friction model at the database's contact: it predicts the recordings it was not "
             "fitted on better than with the contact fitted")
     scored = [_with_uncertainty(s, fits[_fit_key(s)], tau) if _fit_key(s) in fits else s for s in scored]
@@ -620,6 +632,45 @@ def _friction_parameters(world, odb, target: str, contact: bool = False) -> list
         # a rigid object (no hydroelastic modulus: point contact) has only its damping
         kinds += [k for k in CONTACT if contact and kind_named(k).null(world, odb, target) is not None]
     return [Parameter.of(kind, target, world, odb, effect="friction") for kind in kinds]
+
+
+def _read_friction(ev: Evaluator, work: WorkFit | None, friction: Sequence[Parameter], fitted: dict[str, float],
+                   world, odb) -> list[tuple[Scored, FitResult]]:
+    """The friction model as the recordings read it, before any simulation: the sliding pair's coefficient held at
+    what the work the robot did balances (`work`), the rod's pair and the contact held at the database's, and at
+    the friction fit's (`fitted`) where those differ; none where the work reads the database's coefficient (within
+    `WorkFit.disagrees` or the coefficient's negligible size).
+
+    A quasi-static push's path does not depend on the surface's coefficient, only the force and the slide-on
+    after the rod stops do, so where the world also differs from the model elsewhere (its contact, its servo, its
+    step) a fitted coefficient is pulled by whatever the paths leave: a mismatched rect1 world on a rougher surface
+    (pair 0.344 for the database's 0.25) had its coefficients fitted to 0.366 with the rod's pair x 1.04, which sent
+    one push's rod sticking where it slid (3.3 -> 9.7 noise floors), and `friction` predicted the recordings it was
+    not fitted on 3 % worse than `none`: the verdict was `none` while the work read 0.335 +- 0.002. The contact
+    the friction fit found is kept beside the database's since the world's contact shows in the slide-on too: an
+    ellip1 world on a smoother surface (pair 0.200, read 0.2035) replayed at the reading with the database's contact
+    went 16 -> 26 noise floors on one push, with the fitted contact 16 -> 6.3. Held at the reading, a model is
+    measured (`Scored.measured`): it is the floor where it predicts better than the fitted coefficients
+    (`_cross_validate`), and accepted over `none` where it does not predict worse."""
+    sliding = next((p for p in friction if p.kind.name == "sliding_friction"), None)
+    if work is None or sliding is None or sliding.target != work.object:
+        return []
+    lo, hi = sliding.bounds
+    value = float(np.clip(work.coefficient, lo, hi))
+    size = sliding.kind.negligible(world, odb, sliding.target)
+    if not work.disagrees(sliding.start) or (size is not None and abs(value - sliding.start) < size):
+        return []
+    others = [{p.name: p.start for p in friction}]
+    if any(not math.isclose(fitted[p.name], p.start) for p in friction if p is not sliding):
+        others.append(fitted)
+    out = []
+    for held in others:
+        space = ParameterSet(tuple(replace(p, value=value, std=work.coefficient_sd) if p is sliding
+                                   else replace(p, value=held[p.name], std=None) for p in friction),
+                             "the friction the work reads")
+        result = fit(ev, space, np.zeros(0))
+        out.append((_from_fit("friction", sliding.target, result, world, odb, measured=True), result))
+    return out
 
 
 def _held_contact(friction: Sequence[Parameter], fitted: dict[str, float]) -> list[Parameter]:
@@ -822,7 +873,10 @@ def _from_fit(effect: str, target: str | None, result: FitResult, world, odb, me
     measure (`_measured`); one held at a reading that is no evidence by itself (`_held_frame`) is judged as a fitted
     effect is."""
     free, values, std = result.space.free, result.values(), result.std()
-    if effect == "friction":
+    if effect == "friction" and not free:  # held at a reading (`_read_friction`): the coefficients read
+        own = [p for p in result.space.entries if p.std is not None]
+        target = own[0].target
+    elif effect == "friction":
         own = list(free)
         target = free[max(range(len(free)), key=lambda i: abs(result.x[i]))].target
     else:  # the effect's parameters, fitted or held at a measurement (`_measured`)
@@ -1065,7 +1119,8 @@ def _verdict(scored: list[Scored], world, odb) -> tuple[str, str | None, Scored]
                        "floor the effects were judged against, not the verdict")
         return "none", "; ".join(reasons) + "; no effect of the catalog is confirmed", floor
     tail = "no effect of the catalog is confirmed" + ("" if floor.effect == "none" else
-                                                      ", the fitted friction is the model")
+                                                      ", the friction the work reads is the model" if floor.measured
+                                                      else ", the fitted friction is the model")
     return floor.effect, ("; ".join(reasons) + f"; {tail}") if reasons else None, floor
 
 
@@ -1242,13 +1297,14 @@ def _rank(scored: list[Scored], verdict: str, floor: Scored) -> list[Scored]:
 
 
 def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: dict, loc: Localisation,
-                    held_names: Sequence[str], world, odb, other: tuple[Scored, FitResult] | None = None
+                    held_names: Sequence[str], world, odb, variants: Sequence[tuple[Scored, FitResult]] = ()
                     ) -> tuple[list[Scored], dict]:
     """`none`, `friction` and every effect worth its parameters against the floor (`_fit_reason`) predict each
     recording they were not fitted on (`crossval`): the held-out ones from their fit, each fitted one from the fit
-    without it. The floor is known once `friction` is: it is `friction` if that is accepted over `none`. `other`:
-    the friction model with its contact held elsewhere (the database's) and its fit; the one of the two that
-    predicts better (`_better_floor`) is `friction` from then on. Nothing is cross-validated with a single
+    without it. The floor is known once `friction` is: it is `friction` if that is accepted over `none`.
+    `variants`: other forms of the friction model with their fits (its contact held at the database's, its
+    coefficient held at the work's reading: `_read_friction`); of those worth their parameters, the one that
+    predicts best (`_better_floor`, in turn) is `friction` from then on. Nothing is cross-validated with a single
     recording. Returns the models with `cv` and the fits (those cross-validated with their Jacobian differenced at
     the optimum, reused for the uncertainty)."""
     if len(ev.indices) + len(held_names) < 2:
@@ -1264,15 +1320,19 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
     friction = by.get("friction")
     if friction is not None and _fit_reason(friction, none, None, world, odb) is None:
         friction = validated(friction)
-        if other is not None and _fit_reason(other[0], none, None, world, odb) is None:
-            key = _fit_key(friction)
-            contact_fitted = fits[key]
-            fits = {**fits, key: other[1]}
-            alternative = validated(other[0])
-            if _better_floor(friction, alternative) is friction:
-                fits = {**fits, key: contact_fitted}
-            else:
-                friction = alternative
+    key = ("friction", None)
+    for variant, result in variants:
+        if friction is None or _fit_reason(variant, none, None, world, odb) is not None:
+            continue
+        if friction.cv is None and not variant.measured:  # a form of a fit not worth its parameters
+            continue
+        kept = fits[key]
+        fits = {**fits, key: result}
+        alternative = validated(variant)
+        if friction.cv is None or _better_floor(friction, alternative) is alternative:
+            friction = alternative
+        else:
+            fits = {**fits, key: kept}
     floor_friction = friction if friction is not None and _acceptable(friction, none, None, world, odb) is None \
         else None
     out = []
@@ -1289,9 +1349,9 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
 
 
 def _better_floor(a: Scored, b: Scored) -> Scored:
-    """Of two variants of the ordinary model (the friction coefficients with the contact fitted, and held at the
-    database's), the one that predicts the recordings it was not fitted on better (`Prediction.compare`, each
-    recording alike); `a` on a tie. An effect screened at the database's contact is judged against the floor that
+    """Of two forms of the ordinary model (the friction coefficients with the contact fitted, held at the
+    database's, or the sliding one held at the work's reading), the one that predicts the recordings it was not
+    fitted on better (`Prediction.compare`, each recording alike); `a` on a tie. An effect screened at the database's contact is judged against the floor that
     has it too, else it is credited with the contact: a mismatched tri1 world's friction model with its contact
     fitted predicted 6 of 8 recordings 1.2-4.5 times worse than at the database's, and a post that touched two of
     them took the verdict at the database's contact (its held-out pushes 49 % better, 193 mm from the real box)."""
