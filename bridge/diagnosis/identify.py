@@ -461,7 +461,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
             f"[{runner.simulations} simulations]")
     read = [] if limit.expired() else _read_friction(ev, work, friction_params, fits[("friction", None)].values(),
                                                        world, odb)
-    read = [(_held_out(runner, held_out, [s])[0], r) for s, r in read]
+    read = list(zip(_held_out(runner, held_out, [s for s, _ in read]), [r for _, r in read]))  # one batch
     for (s, r), where in zip(read, ("the database's", "the friction fit's")):
         say(f"friction as the work reads it: {_fmt(s.params)} (the rod's pair and the contact {where}), rms "
             f"{s.rms:.1f} [{runner.simulations} simulations]")
@@ -1351,10 +1351,11 @@ def _cross_validate(runner: Runner, ev: Evaluator, scored: list[Scored], fits: d
 def _better_floor(a: Scored, b: Scored) -> Scored:
     """Of two forms of the ordinary model (the friction coefficients with the contact fitted, held at the
     database's, or the sliding one held at the work's reading), the one that predicts the recordings it was not
-    fitted on better (`Prediction.compare`, each recording alike); `a` on a tie. An effect screened at the database's contact is judged against the floor that
-    has it too, else it is credited with the contact: a mismatched tri1 world's friction model with its contact
-    fitted predicted 6 of 8 recordings 1.2-4.5 times worse than at the database's, and a post that touched two of
-    them took the verdict at the database's contact (its held-out pushes 49 % better, 193 mm from the real box)."""
+    fitted on better (`Prediction.compare`, each recording alike); `a` on a tie. An effect screened at the
+    database's contact is judged against the floor that has it too, else it is credited with the contact: a
+    mismatched tri1 world's friction model with its contact fitted predicted 6 of 8 recordings 1.2-4.5 times
+    worse than at the database's, and a post that touched two of them took the verdict at the database's contact
+    (its held-out pushes 49 % better, 193 mm from the real box)."""
     if a.cv is None or b.cv is None:
         return a
     return b if b.cv.compare(a.cv) > 0.0 else a

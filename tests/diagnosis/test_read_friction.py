@@ -48,7 +48,8 @@ def test_a_rougher_surface_the_fit_missed_is_named_from_the_work(odb, mit_push_r
     assert ident.verdict == "friction", ident.notes
     winner = ident.winner
     assert winner.measured
-    assert ident.work is not None and winner.params == {"sliding_friction[rect1]": pytest.approx(ident.work.coefficient)}
+    assert ident.work is not None
+    assert winner.params == {"sliding_friction[rect1]": pytest.approx(ident.work.coefficient)}
     assert abs(winner.params["sliding_friction[rect1]"] / pair - 1.0) < 0.1
     none = next(s for s in ident.ranked if s.effect == "none")
     assert winner.cv.compare(none.cv) > 0.25
