@@ -23,12 +23,16 @@ reads as a slope too. Independent MuJoCo worlds (benchmarks/independent_pushes.p
 proof's tilted Drake worlds (softer contact, a weak servo) 2-5 times too steep (downhill within 17 deg), worlds
 with a patch or a miscalibrated rod 1.6-1.8 deg, the real MIT pushes 4-8 deg (docs/diagnosis.md section 3d): far
 from a measurement. `coefficient` is mu at the object database's mass (a heavier object reads as a larger mu: the
-force measures weight x coefficient); it reads within 0.025 of the truth in every simulated world.
+force measures weight x coefficient); it reads within 0.025 of the truth in every simulated world whose pushes pin
+the slope. Where they do not (pushes in about one direction: a slope along them and the coefficient trade off), mu
+is read on a level surface, one unknown: the joint fit there put planar worlds of 0.36-0.49 at 0.05-0.10 with a
+slope of 16-29 deg, and within 0.012 of the truth on a level surface (where the slope is pinned, the two agree
+within 0.003 in the proof's worlds without a post).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Sequence
 
 import numpy as np
@@ -67,6 +71,7 @@ class WorkFit:
     slope_cov: tuple[tuple[float, float], tuple[float, float]]
     windows: int
     recordings: int
+    level: bool = False  # the coefficient read on a level surface: the pushes do not pin the slope (`work_fit`)
 
     def slope_sigmas(self) -> float:
         s = np.array(self.slope)
@@ -107,6 +112,8 @@ class WorkFit:
         text = (f"the work the robot did on {self.object} ({self.windows} windows of {self.recordings} recordings) "
                 f"balances with a sliding coefficient of {self.coefficient:.3f} +- {self.coefficient_sd:.3f} at the "
                 "object database's mass (the force measures weight x coefficient)")
+        if self.level:
+            text += "; read on a level surface, as the pushes do not pin a slope"
         if not self.evident:
             return text
         sd = self.slope_sd
@@ -121,7 +128,7 @@ class WorkFit:
                 "tilt_deg": _g(math.degrees(self.tilt)),
                 "downhill_deg": _g(math.degrees(math.atan2(self.slope[1], self.slope[0]))),
                 "slope_sigmas": _g(self.slope_sigmas()), "pinned": self.pinned, "evident": self.evident,
-                "windows": self.windows, "recordings": self.recordings}
+                "level_surface": self.level, "windows": self.windows, "recordings": self.recordings}
 
 
 def _g(value: float) -> float:
@@ -170,20 +177,21 @@ def windows_of(times: np.ndarray, xy: np.ndarray, yaw: np.ndarray, rod: np.ndarr
     return np.array(rows).reshape(-1, 4)
 
 
-def balance(rows: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def balance(rows: np.ndarray, groups: np.ndarray, slope: bool = True) -> tuple[np.ndarray, np.ndarray] | None:
     """(mu, s_x, s_y) and their covariance from the windows' rows (`windows_of`; `groups`: each row's recording):
     least squares of work = mu (m g D) - s . (m g displacement), refitted without the windows off by more than
-    OUTLIER robust deviations (a post the object slid along, a jam). The covariance is clustered by recording
-    (the sandwich estimator): a push's windows share its errors (where the rod met the object, how it turned),
-    so the recordings, not the windows, are the independent samples. None when the rows cannot pin three
-    unknowns."""
+    OUTLIER robust deviations (a post the object slid along, a jam); (mu,) alone on a level surface without
+    `slope`. The covariance is clustered by recording (the sandwich estimator): a push's windows share its errors
+    (where the rod met the object, how it turned), so the recordings, not the windows, are the independent samples.
+    None when the rows cannot pin the unknowns."""
     if len(rows) < 6:
         return None
-    A = np.column_stack([rows[:, 1], -rows[:, 2], -rows[:, 3]])
+    A = np.column_stack([rows[:, 1], -rows[:, 2], -rows[:, 3]]) if slope else rows[:, 1:2]
     b = rows[:, 0]
+    unknowns = A.shape[1]
     keep = np.ones(len(b), dtype=bool)
     for _ in range(3):
-        if keep.sum() < 6 or np.linalg.matrix_rank(A[keep]) < 3:
+        if keep.sum() < 6 or np.linalg.matrix_rank(A[keep]) < unknowns:
             return None
         x, *_ = np.linalg.lstsq(A[keep], b[keep], rcond=None)
         left = b - A @ x
@@ -194,13 +202,13 @@ def balance(rows: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarra
         keep = kept
     bread = np.linalg.inv(A[keep].T @ A[keep])
     labels = np.unique(groups[keep])
-    meat = np.zeros((3, 3))
+    meat = np.zeros((unknowns, unknowns))
     for g in labels:
         k = keep & (groups == g)
         score = A[k].T @ left[k]
         meat += np.outer(score, score)
     n_groups = len(labels)
-    if n_groups <= 3:
+    if n_groups <= unknowns:
         return None
     return x, bread @ meat @ bread * n_groups / (n_groups - 1)
 
@@ -241,16 +249,21 @@ def push_windows(trials: Sequence, odb, obj: str) -> list[tuple[int, np.ndarray]
 
 def work_fit(trials: Sequence, odb, obj: str) -> WorkFit | None:
     """The `WorkFit` of `obj` over `trials` (`rollout.trials.Trial`); None without a planar pusher, a force track,
-    a prism outline or windows enough (four recordings or more that pushed it: three unknowns, clustered)."""
+    a prism outline or windows enough (four recordings or more that pushed it: three unknowns, clustered). Where
+    the slope is not pinned, the coefficient is the level surface's (module docstring)."""
     pushes = push_windows(trials, odb, obj)
     if pushes is None or len(pushes) < 4:
         return None
-    rows = [r for _, r in pushes]
-    groups = [np.full(len(r), g) for g, r in enumerate(rows)]
-    solved = balance(np.concatenate(rows), np.concatenate(groups))
+    rows = np.concatenate([r for _, r in pushes])
+    groups = np.concatenate([np.full(len(r), g) for g, (_, r) in enumerate(pushes)])
+    solved = balance(rows, groups)
     if solved is None:
         return None
     x, cov = solved
-    return WorkFit(obj, float(x[0]), float(math.sqrt(max(cov[0, 0], 0.0))), (float(x[1]), float(x[2])),
-                   ((float(cov[1, 1]), float(cov[1, 2])), (float(cov[2, 1]), float(cov[2, 2]))),
-                   int(sum(len(r) for r in rows)), len(rows))
+    fit = WorkFit(obj, float(x[0]), float(math.sqrt(max(cov[0, 0], 0.0))), (float(x[1]), float(x[2])),
+                  ((float(cov[1, 1]), float(cov[1, 2])), (float(cov[2, 1]), float(cov[2, 2]))), len(rows), len(pushes))
+    level = None if fit.pinned else balance(rows, groups, slope=False)
+    if level is None:
+        return fit
+    return replace(fit, coefficient=float(level[0][0]), coefficient_sd=float(math.sqrt(max(level[1][0, 0], 0.0))),
+                   level=True)

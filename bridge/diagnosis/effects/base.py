@@ -4,7 +4,8 @@ conceals it in a generated world by a physical mechanism other than the model th
 
 Required surface: `name`, `kinds` (and `targets`). Optional hooks: `members` (which kind on which target, when
 not all on the effect's target), `fixed` (kinds held at a value while the effect applies), `judged_by` (the
-kinds whose negligible size decides whether the effect is worth reporting), `signature`, `seeds`, `describe`;
+kinds whose negligible size decides whether the effect is worth reporting), `reduces_to` (the effect nested in
+this one, e.g. `mass` in `com_offset`), `signature`, `seeds`, `describe`;
 for the proof `draw_truth`, `conceal` and `recovered`.
 
 Parameters are named as everywhere in bridge: ``kind[target]`` (e.g. ``com_x[block]``).
@@ -113,6 +114,8 @@ class Effect:
     kinds: ClassVar[tuple[str, ...]] = ()
     fixed: ClassVar[Mapping[str, float]] = {}
     judged_by: ClassVar[tuple[str, ...] | None] = None  # None: every kind with a negligible size
+    reduces_to: ClassVar[str | None] = None  # the effect nested in this one, which a fit whose own (`judged_by`)
+    #                                          parameters are negligible is (`identify._nested`)
 
     def targets(self, world: WorldState, odb: ObjectDatabase, observed: Sequence[str]) -> tuple[str, ...]:
         raise NotImplementedError

@@ -24,7 +24,8 @@ class ComOffset(Effect):
     signature_text = "yaw residual from the first contact on, its sign set by which side of the centre is pushed"
     kinds = ("com_x", "com_y", "mass")
     fixed = {"mass_spread": 0.0}
-    judged_by = ("com_x", "com_y")  # the mass is `mass`'s business
+    judged_by = ("com_x", "com_y")  # the mass is `mass`'s business ...
+    reduces_to = "mass"  # ... and a fit on the centre with another mass is a fit of `mass`
 
     def targets(self, world, odb, observed):
         return movable_observed(world, odb, observed)
