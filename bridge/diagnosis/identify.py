@@ -417,7 +417,9 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         starts = [space.to_normal(c.start), space.to_normal({**c.start, **base_fit.values()})]
         result, scored = _fit_effect(runner, ev, space, starts, c.effect, c.target, held_out, options, limit,
                                      _all_measured(c, world, odb, measured))
-        fits[(c.effect, c.target)] = result
+        before = next((k for k, f in enumerate(fitted) if (f.effect, f.target) == (c.effect, c.target)), None)
+        if before is None or scored.chi2 < fitted[before].chi2:  # a refit from a nesting effect's fit (`_nested`)
+            fits[(c.effect, c.target)] = result
         frictions = {s.name: s.value for s in scored.model if s.effect == "friction"}
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
         # the friction model gets them too (refitted from there), so the effect is not credited with them
@@ -430,10 +432,9 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
             effect_friction = _held_contact(friction_params, base_fit.values())  # the later effects' contact
             say(f"friction refitted from {c.effect}'s coefficients: {_fmt(base_fit.values())}, "
                 f"rms {fitted[1].rms:.1f}")
-        before = next((k for k, f in enumerate(fitted) if (f.effect, f.target) == (c.effect, c.target)), None)
         if before is None:
             fitted.append(scored)
-        elif scored.chi2 < fitted[before].chi2:  # refitted from a nesting effect's fit (`_nested`)
+        elif scored.chi2 < fitted[before].chi2:
             fitted[before] = scored
         ok = _fit_reason(scored, fitted[0], fitted[1], world, odb) is None
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
