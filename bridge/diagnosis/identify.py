@@ -417,8 +417,10 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
         starts = [space.to_normal(c.start), space.to_normal({**c.start, **base_fit.values()})]
         result, scored = _fit_effect(runner, ev, space, starts, c.effect, c.target, held_out, options, limit,
                                      _all_measured(c, world, odb, measured))
+        # a refit from a nesting effect's fit (`_nested`) replaces the earlier fit only where it fits better
         before = next((k for k, f in enumerate(fitted) if (f.effect, f.target) == (c.effect, c.target)), None)
-        if before is None or scored.chi2 < fitted[before].chi2:  # a refit from a nesting effect's fit (`_nested`)
+        better = before is None or scored.chi2 < fitted[before].chi2
+        if better:
             fits[(c.effect, c.target)] = result
         frictions = {s.name: s.value for s in scored.model if s.effect == "friction"}
         # a fair comparison: if the effect's fit found better friction coefficients than the friction fit did,
@@ -434,7 +436,7 @@ def identify(runner: Runner, train: Sequence[int], held_out: Sequence[int] = (),
                 f"rms {fitted[1].rms:.1f}")
         if before is None:
             fitted.append(scored)
-        elif scored.chi2 < fitted[before].chi2:
+        elif better:
             fitted[before] = scored
         ok = _fit_reason(scored, fitted[0], fitted[1], world, odb) is None
         say(f"fit {c.effect} ({c.target}): {_fmt(scored.params)}, rms {scored.rms:.1f} (friction {_fmt(frictions)})"
@@ -870,13 +872,13 @@ def _nested(c: Candidate, s: Scored, order: Sequence[Candidate], fits: dict, wor
     started from `s`, `c`'s fit, where that fit's own parameters are negligible, the nested effect's are not (a mass
     5 % or more off the database's) and it fits better than the nested effect's own fit, if any: what the fit found
     is then the nested effect's, and only a fit of that effect can say so (`_fit_reason` refuses a negligible
-    effect whatever it removes). None otherwise. Measured (session 66): a
-    mismatched tabletop box with a slug at its centre (twice the database's mass) fitted `com_offset` at 0.5 mm with
-    1.5 x the mass to 1.4 noise floors where friction left 4.1, refused as negligible, while `mass`, screened from
-    the friction fit's first basin (a coefficient of 0.61 matching the force, where the paths ask for 0.31), was
-    not fitted at all."""
-    name = get_effect(c.effect).reduces_to
-    if name is None or not get_effect(c.effect).negligible(world, odb, c.target, s.params):
+    effect whatever it removes). None otherwise. Measured (session 66): a mismatched tabletop box with a slug at
+    its centre (twice the database's mass) fitted `com_offset` at 0.5 mm with 1.5 x the mass to 1.4 noise floors
+    where friction left 4.1, refused as negligible, while `mass`, screened from the friction fit's first basin (a
+    coefficient of 0.61 matching the force, where the paths ask for 0.31), was not fitted at all."""
+    outer = get_effect(c.effect)
+    name = outer.reduces_to
+    if name is None or not outer.negligible(world, odb, c.target, s.params):
         return None
     inner = next((o for o in order if (o.effect, o.target) == (name, c.target)), None)
     done = fits.get((name, c.target))
