@@ -11,7 +11,7 @@ from bridge.prove.scenes import Case
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
-from effect_size_benchmark import push_difference, shows  # noqa: E402
+from effect_size_benchmark import fitted_showing, push_difference, shows, summarise  # noqa: E402
 
 SHAPE = "mit_steel_block"  # a box in the MIT format: no dataset needed
 
@@ -36,3 +36,20 @@ def test_a_case_and_its_twin_differ_by_the_effect_alone(odb, tmp_path):
         assert 0.6 * math.log(3.0) < size["log_force"] < 1.3 * math.log(3.0), size  # mass x 3
     same = push_difference(twin[0], twin[0])
     assert not shows(same) and same["object_mm"] == 0.0
+
+
+def test_an_effect_only_the_held_out_pushes_show_is_counted_apart():
+    """The mismatched proof's hex post (small, seed 2) moved the object in 2 of its 8 pushes, both of them the
+    ones `bridge diagnose` holds out (rec_05 and rec_07): nothing the diagnosis fits shows the post, so the miss
+    is counted among the cases no search could find, not among those whose fitted pushes show the effect."""
+    quiet = {"object_mm": 0.2, "object_deg": 0.1, "rod_mm": 0.0, "log_force": 0.0}
+    moved = {**quiet, "object_mm": 22.0}
+    held_only = [quiet] * 5 + [moved, quiet, moved]
+    assert fitted_showing(held_only) == 0 and sum(shows(p) for p in held_only) == 2
+    seen = [moved, moved, moved, quiet, quiet, quiet, quiet, quiet]  # 3 of the 6 fitted pushes
+    rows = [{"case": "a", "right": False, "pushes_showing": 2, "fitted_showing": 0, "pushes": held_only},
+            {"case": "b", "right": True, "pushes_showing": 3, "fitted_showing": fitted_showing(seen), "pushes": seen},
+            {"case": "c", "right": None, "pushes_showing": 3, "fitted_showing": 3, "pushes": seen}]
+    summary = summarise(rows)
+    assert summary["judged"] == 2 and summary["wrong"] == 1
+    assert (summary["fitted_showing_in_half_or_more"], summary["right_of_those"]) == (1, 1)
