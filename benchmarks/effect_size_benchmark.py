@@ -72,9 +72,11 @@ def fitted_showing(pushes: list[dict[str, float | None]]) -> int:
 
 def summarise(rows: list[dict]) -> dict[str, int]:
     """Counts over the cases, those whose fitted pushes show the effect in half of them or more apart."""
+    def fitted(r: dict) -> int:
+        return len(r["pushes"]) - len(held_out_indices(len(r["pushes"]), None))
+
     judged = [r for r in rows if r["right"] is not None]
-    shown = [r for r in judged
-             if 2 * r["fitted_showing"] >= len(r["pushes"]) - len(held_out_indices(len(r["pushes"]), None))]
+    shown = [r for r in judged if 2 * r["fitted_showing"] >= fitted(r)]
     return {"cases": len(rows), "judged": len(judged),
             "showing_in_no_push": sum(r["pushes_showing"] == 0 for r in rows),
             "wrong_showing_in_half_or_more": sum(not r["right"] and 2 * r["pushes_showing"] >= len(r["pushes"])
